@@ -1,0 +1,1 @@
+"""Hardware specifications (one TOML file per target), shipped as package data."""

@@ -1,0 +1,1 @@
+"""The papers' models and the non-spiking baselines, installed as ``neurovpr.models.<name>``."""

@@ -1,0 +1,282 @@
+"""Cell types: neuron models and spike sources, with PyNN's names, defaults and units.
+
+Units follow PyNN: ms, mV, nA, nF, uS, Hz. Every numeric parameter is either one
+number for the whole population or a 1-D array with one value per neuron.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from neurovpr.errors import ValidationError
+from neurovpr.node import IRNode, freeze_array, param
+
+__all__ = [
+    "CellType",
+    "NeuronType",
+    "SourceType",
+    "IF_curr_exp",
+    "IF_cond_exp",
+    "IF_cond_exp_adaptive",
+    "IF_curr_exp_ca2_adaptive",
+    "SoftLIF",
+    "SpikeSourcePoisson",
+    "SpikeSourceArray",
+    "CELL_TYPES",
+]
+
+_KW = {"frozen": True, "slots": True, "kw_only": True, "eq": False}
+
+
+class CellType(IRNode):
+    """Base of every cell type."""
+
+    __slots__ = ()
+    #: True for spike sources, which have no membrane and receive no projections.
+    is_source: ClassVar[bool] = False
+    #: True when synaptic input is a conductance (uS) rather than a current (nA).
+    conductance_based: ClassVar[bool] = False
+    #: Names of the state variables a backend can record for this type.
+    recordable: ClassVar[tuple[str, ...]] = ()
+
+    def array_sizes(self) -> dict[str, int]:
+        """Return ``{field: length}`` for every field given as a per-neuron array."""
+        return {
+            name: value.size
+            for name in self.__dataclass_fields__  # type: ignore[attr-defined]
+            if isinstance(value := getattr(self, name), np.ndarray) and value.ndim == 1
+        }
+
+
+class NeuronType(CellType):
+    """Base of the integrate-and-fire neuron models."""
+
+    __slots__ = ()
+    recordable = ("v", "isyn_exc", "isyn_inh")
+
+    def _validate(self) -> None:
+        rest = np.asarray(self.v_reset)  # type: ignore[attr-defined]
+        thresh = np.asarray(self.v_thresh)  # type: ignore[attr-defined]
+        if np.any(rest >= thresh):
+            raise ValidationError(
+                f"{type(self).__name__}.v_reset ({self.v_reset!r} mV) must be below "  # type: ignore[attr-defined]
+                f"v_thresh ({self.v_thresh!r} mV)."  # type: ignore[attr-defined]
+            )
+
+
+class SourceType(CellType):
+    """Base of the spike sources."""
+
+    __slots__ = ()
+    is_source = True
+
+
+@dataclass(**_KW)
+class IF_curr_exp(NeuronType):  # noqa: N801 - PyNN's name
+    """Leaky integrate-and-fire neuron with exponentially decaying current synapses.
+
+    ``cm dv/dt = cm (v_rest - v) / tau_m + I_E - I_I + i_offset``, ``dI_X/dt = -I_X / tau_syn_X``;
+    a spike when ``v >= v_thresh``, then ``v = v_reset`` for ``tau_refrac``.
+    """
+
+    cm: float = param(1.0, unit="nF", low=0.0, low_open=True, array=True)
+    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True)
+    tau_refrac: float = param(0.1, unit="ms", low=0.0, array=True)
+    tau_syn_E: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
+    tau_syn_I: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
+    v_rest: float = param(-65.0, unit="mV", array=True)
+    v_reset: float = param(-65.0, unit="mV", array=True)
+    v_thresh: float = param(-50.0, unit="mV", array=True)
+    i_offset: float = param(0.0, unit="nA", array=True)
+
+
+@dataclass(**_KW)
+class IF_cond_exp(NeuronType):  # noqa: N801 - PyNN's name
+    """Leaky integrate-and-fire neuron with exponentially decaying conductance synapses.
+
+    ``cm dv/dt = cm (v_rest - v) / tau_m + g_E (e_rev_E - v) + g_I (e_rev_I - v) + i_offset``.
+    """
+
+    conductance_based = True
+    recordable = ("v", "gsyn_exc", "gsyn_inh")
+
+    cm: float = param(1.0, unit="nF", low=0.0, low_open=True, array=True)
+    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True)
+    tau_refrac: float = param(0.1, unit="ms", low=0.0, array=True)
+    tau_syn_E: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
+    tau_syn_I: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
+    e_rev_E: float = param(0.0, unit="mV", array=True)
+    e_rev_I: float = param(-70.0, unit="mV", array=True)
+    v_rest: float = param(-65.0, unit="mV", array=True)
+    v_reset: float = param(-65.0, unit="mV", array=True)
+    v_thresh: float = param(-50.0, unit="mV", array=True)
+    i_offset: float = param(0.0, unit="nA", array=True)
+
+
+@dataclass(**_KW)
+class IF_cond_exp_adaptive(NeuronType):  # noqa: N801 - PyNN-style name
+    """Diehl & Cook (2015) excitatory neuron: ``IF_cond_exp`` with an adaptive threshold.
+
+    The threshold is ``v_thresh + theta``; ``theta`` grows by ``theta_plus`` at every
+    spike and decays to 0 with ``tau_theta``. ``theta_init`` is its starting value
+    (a learned quantity: saving a trained simulation stores it here).
+    """
+
+    conductance_based = True
+    recordable = ("v", "gsyn_exc", "gsyn_inh", "theta")
+
+    cm: float = param(1.0, unit="nF", low=0.0, low_open=True, array=True)
+    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True)
+    tau_refrac: float = param(0.1, unit="ms", low=0.0, array=True)
+    tau_syn_E: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
+    tau_syn_I: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
+    e_rev_E: float = param(0.0, unit="mV", array=True)
+    e_rev_I: float = param(-70.0, unit="mV", array=True)
+    v_rest: float = param(-65.0, unit="mV", array=True)
+    v_reset: float = param(-65.0, unit="mV", array=True)
+    v_thresh: float = param(-50.0, unit="mV", array=True)
+    i_offset: float = param(0.0, unit="nA", array=True)
+    theta_plus: float = param(0.05, unit="mV", low=0.0, array=True)
+    tau_theta: float = param(1e7, unit="ms", low=0.0, low_open=True, array=True)
+    theta_init: float = param(0.0, unit="mV", array=True)
+
+
+@dataclass(**_KW)
+class IF_curr_exp_ca2_adaptive(NeuronType):  # noqa: N801 - sPyNNaker's name
+    """sPyNNaker's ``IFCurrExpCa2Adaptive`` (Liu & Wang 2001): ``IF_curr_exp`` plus a
+    calcium-activated after-hyperpolarisation current.
+
+    ``dI_ca2/dt = -I_ca2 / tau_ca2``, ``I_ca2 += i_alpha`` at each spike, and ``-I_ca2``
+    is added to the membrane current. ``i_ca2`` is its initial value.
+    """
+
+    recordable = ("v", "isyn_exc", "isyn_inh", "i_ca2")
+
+    cm: float = param(1.0, unit="nF", low=0.0, low_open=True, array=True)
+    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True)
+    tau_refrac: float = param(0.1, unit="ms", low=0.0, array=True)
+    tau_syn_E: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
+    tau_syn_I: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
+    v_rest: float = param(-65.0, unit="mV", array=True)
+    v_reset: float = param(-65.0, unit="mV", array=True)
+    v_thresh: float = param(-50.0, unit="mV", array=True)
+    i_offset: float = param(0.0, unit="nA", array=True)
+    tau_ca2: float = param(50.0, unit="ms", low=0.0, low_open=True, array=True)
+    i_ca2: float = param(0.0, unit="nA", array=True)
+    i_alpha: float = param(0.1, unit="nA", array=True)
+
+
+@dataclass(**_KW)
+class SoftLIF(CellType):
+    """Rate-approximated LIF (Hunsberger & Eliasmith 2015), for gradient training only.
+
+    ``r(j) = amplitude / (tau_ref + tau_rc * log(1 + 1 / p(j - 1)))`` with the smooth
+    ``p(x) = sigma * log(1 + exp(x / sigma))``. No spiking backend runs it; a trained
+    network is converted to spiking LIF populations before simulation.
+    """
+
+    tau_rc: float = param(20.0, unit="ms", low=0.0, low_open=True)
+    tau_ref: float = param(2.0, unit="ms", low=0.0)
+    sigma: float = param(0.02, low=0.0, low_open=True, doc="softplus smoothing (gamma)")
+    amplitude: float = param(1.0, low=0.0, low_open=True)
+
+
+@dataclass(**_KW)
+class SpikeSourcePoisson(SourceType):
+    """Independent Poisson spike trains, one per neuron.
+
+    ``rate`` may be one rate for all neurons or one per neuron; it can be replaced
+    at every ``Simulation.run`` through ``inputs=``.
+    """
+
+    rate: float = param(0.0, unit="Hz", low=0.0, array=True)
+    start: float = param(0.0, unit="ms", low=0.0)
+    duration: float = param(math.inf, unit="ms", low=0.0)
+
+
+@dataclass(**_KW)
+class SpikeSourceArray(SourceType):
+    """Explicit spike times.
+
+    ``spike_times`` is a sequence with one sorted sequence of times (ms) per neuron,
+    stored internally as a flat ``times`` array and CSR ``offsets`` (neuron ``i``
+    fires at ``times[offsets[i]:offsets[i+1]]``). Use :meth:`from_lists` or
+    :meth:`from_events` to build one.
+    """
+
+    times: np.ndarray = field(default_factory=lambda: np.zeros(0), metadata={"unit": "ms"})
+    offsets: np.ndarray = field(default_factory=lambda: np.zeros(1, dtype=np.int64))
+
+    def __post_init__(self) -> None:  # arrays may legitimately be empty here
+        times = freeze_array(self.times)
+        offsets = freeze_array(self.offsets, dtype=np.int64)
+        object.__setattr__(self, "times", times)
+        object.__setattr__(self, "offsets", offsets)
+        name = type(self).__name__
+        if times.ndim != 1 or offsets.ndim != 1 or offsets.size < 1:
+            raise ValidationError(f"{name}.offsets must be a 1-D CSR offset array of length n+1.")
+        if offsets[0] != 0 or offsets[-1] != times.size or np.any(np.diff(offsets) < 0):
+            raise ValidationError(
+                f"{name}.offsets must rise from 0 to len(times)={times.size}, got {offsets.tolist()[:8]}."
+            )
+        if times.size and (not np.all(np.isfinite(times)) or times.min() < 0):
+            bad = int(np.flatnonzero(~np.isfinite(times) | (times < 0))[0])
+            raise ValidationError(
+                f"{name}.times must be finite and >= 0 ms, got {times[bad]!r} at index {bad}."
+            )
+        for i in range(offsets.size - 1):
+            seg = times[offsets[i] : offsets[i + 1]]
+            if seg.size > 1 and np.any(np.diff(seg) < 0):
+                raise ValidationError(f"{name}: spike times of neuron {i} are not sorted.")
+
+    @property
+    def n_neurons(self) -> int:
+        """Number of neurons the spike trains describe."""
+        return int(self.offsets.size - 1)
+
+    @classmethod
+    def from_lists(cls, spike_times: list[list[float]] | list[np.ndarray]) -> SpikeSourceArray:
+        """Build from one sequence of spike times (ms) per neuron."""
+        lengths = [len(s) for s in spike_times]
+        offsets = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+        flat = np.concatenate([np.asarray(s, dtype=float) for s in spike_times]) if lengths else []
+        return cls(times=np.asarray(flat, dtype=float), offsets=offsets)
+
+    @classmethod
+    def from_events(cls, times_ms: np.ndarray, neurons: np.ndarray, n_neurons: int) -> SpikeSourceArray:
+        """Build from parallel arrays of spike times (ms) and neuron indices."""
+        times_ms = np.asarray(times_ms, dtype=float)
+        neurons = np.asarray(neurons, dtype=np.int64)
+        if times_ms.shape != neurons.shape or times_ms.ndim != 1:
+            raise ValidationError("SpikeSourceArray.from_events needs two 1-D arrays of equal length.")
+        if neurons.size and (neurons.min() < 0 or neurons.max() >= n_neurons):
+            raise ValidationError(
+                f"SpikeSourceArray.from_events: neuron index {int(neurons.max())} is outside 0..{n_neurons - 1}."
+            )
+        order = np.lexsort((times_ms, neurons))
+        counts = np.bincount(neurons, minlength=n_neurons)
+        offsets = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
+        return cls(times=times_ms[order], offsets=offsets)
+
+    def array_sizes(self) -> dict[str, int]:
+        """Spike trains give the population size through ``offsets``."""
+        return {"spike_times": self.n_neurons}
+
+
+#: Every cell type, by name (save/load, registries and capability tables use it).
+CELL_TYPES: dict[str, type[CellType]] = {
+    cls.__name__: cls
+    for cls in (
+        IF_curr_exp,
+        IF_cond_exp,
+        IF_cond_exp_adaptive,
+        IF_curr_exp_ca2_adaptive,
+        SoftLIF,
+        SpikeSourcePoisson,
+        SpikeSourceArray,
+    )
+}

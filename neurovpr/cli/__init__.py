@@ -1,0 +1,1 @@
+"""The ``neurovpr`` command line."""
