@@ -22,7 +22,7 @@ from neurovpr.cells import (
     SpikeSourceArray,
     SpikeSourcePoisson,
 )
-from neurovpr.compiler import compile  # noqa: A004
+from neurovpr.compiler import compile
 from neurovpr.connectivity import Connections, expand
 from neurovpr.connectors import (
     AllToAllConnector,

@@ -96,7 +96,7 @@ class Backend:
         for module in self.requires:
             try:
                 importlib.import_module(module)
-            except Exception as exc:  # noqa: BLE001 - any import failure makes it unavailable
+            except Exception as exc:
                 hint = f"; install it with: pip install 'neurovpr[{self.extra}]'" if self.extra else ""
                 return f"cannot import {module} ({type(exc).__name__}: {exc}){hint}"
         return None

@@ -15,7 +15,7 @@ from neurovpr.simulation import Simulation
 __all__ = ["compile"]
 
 
-def compile(  # noqa: A001 - the public name in DESIGN.md
+def compile(
     network: Network,
     backend: str = "reference",
     *,

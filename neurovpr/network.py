@@ -16,7 +16,7 @@ from typing import Any, Literal, Mapping
 import numpy as np
 
 from neurovpr.cells import CellType, NeuronType, SoftLIF
-from neurovpr.connectors import ConvolutionConnector, Connector, FromListConnector
+from neurovpr.connectors import Connector, ConvolutionConnector, FromListConnector
 from neurovpr.distributions import Distribution
 from neurovpr.errors import ValidationError
 from neurovpr.node import IRNode, freeze_array
@@ -239,7 +239,9 @@ class Network:
                 )
         pre, post = self._populations[proj.pre], self._populations[proj.post]
         if post.is_source:
-            raise ValidationError(f"Projection {where}: post population {post.name!r} is a spike source and cannot receive input.")
+            raise ValidationError(
+                f"Projection {where}: post population {post.name!r} is a spike source and cannot receive input."
+            )
         if isinstance(pre.cell_type, SoftLIF) != isinstance(post.cell_type, SoftLIF):
             raise ValidationError(f"Projection {where}: SoftLIF (rate) and spiking populations cannot be connected.")
         proj.connector.check_sizes(pre.size, post.size, where)
@@ -302,11 +304,12 @@ def _check_weight_spec(proj: Projection, n_pre: int, n_post: int, *, conductance
     negative_ok = not conductance and proj.receptor_type == "excitatory"
     if not negative_ok:
         low = weight.low if isinstance(weight, Distribution) and hasattr(weight, "low") else None
-        if isinstance(weight, (float, np.ndarray)) and np.min(weight) < 0 or (low is not None and low < 0):
-            target = "conductance-based" if conductance else "inhibitory"
+        if (isinstance(weight, (float, np.ndarray)) and np.min(weight) < 0) or (low is not None and low < 0):
+            target = "a conductance-based" if conductance else "an inhibitory"
+            got = f"{float(np.min(weight))!r}" if low is None else f"{type(weight).__name__} with low={low!r}"
             raise ValidationError(
-                f"Projection {where}: weights onto a {target} receptor must be >= 0 "
-                "(the receptor type gives the sign)."
+                f"Projection {where}: weights onto {target} receptor must be >= 0 "
+                f"(the receptor type gives the sign), got {got}."
             )
 
 

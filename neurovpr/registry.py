@@ -55,7 +55,7 @@ def discover() -> dict[str, BackendInfo]:
             continue
         try:
             backend = ep.load()
-        except Exception as exc:  # noqa: BLE001 - a broken plugin must not break the listing
+        except Exception as exc:
             infos[ep.name] = BackendInfo(ep.name, False, None, "", f"entry point {ep.value} failed to load: {exc}", None)
             continue
         if not isinstance(backend, Backend):
@@ -91,7 +91,7 @@ def get_backend(name: str) -> Backend:
         raise BackendUnavailableError(f"Unknown backend {name!r}; known backends: {known}.")
     try:
         backend = matches[0].load()
-    except Exception as exc:  # noqa: BLE001
+    except Exception as exc:
         raise BackendUnavailableError(f"Backend {name!r} failed to load: {type(exc).__name__}: {exc}.") from exc
     if not isinstance(backend, Backend):
         raise BackendUnavailableError(f"Backend {name!r} does not provide a neurovpr Backend.")

@@ -95,7 +95,7 @@ class Simulation(ABC):
         duration = float(duration)
         if not math.isfinite(duration) or duration <= 0:
             raise ValidationError(f"run: duration must be a positive finite number of ms, got {duration!r}.")
-        n_steps = int(round(duration / self._dt))
+        n_steps = round(duration / self._dt)
         if n_steps < 1 or abs(n_steps * self._dt - duration) > 1e-6 * max(1.0, duration):
             raise ValidationError(f"run: duration {duration!r} ms is not a whole number of {self._dt:g} ms steps.")
         clean: dict[str, Any] = {}
@@ -253,13 +253,13 @@ class Simulation(ABC):
         return net
 
     # -- validation helpers --------------------------------------------------
-    def _population(self, name: str):  # noqa: ANN202
+    def _population(self, name: str):
         pops = self._network.populations
         if name not in pops:
             raise ValidationError(f"Population {name!r} does not exist (known: {', '.join(pops)}).")
         return pops[name]
 
-    def _projection(self, name: str):  # noqa: ANN202
+    def _projection(self, name: str):
         projs = self._network.projections
         if name not in projs:
             raise ValidationError(f"Projection {name!r} does not exist (known: {', '.join(projs) or 'none'}).")

@@ -89,7 +89,7 @@ class Synapse(IRNode):
         if isinstance(delay, np.ndarray) and (delay.ndim == 4 or np.any(delay <= 0)):
             raise ValidationError(f"{owner}.delay array must be 1-D or 2-D with every delay > 0 ms.")
         object.__setattr__(self, "delay", delay)
-        super(Synapse, self).__post_init__()
+        super().__post_init__()
 
     @property
     def weight_bounds(self) -> tuple[float, float] | None:
@@ -169,10 +169,14 @@ class STDPMechanism(Synapse):
 class DiehlCookSTDP(Synapse):
     """The learning rule of Diehl & Cook (2015) as used by the Modular SNN.
 
-    On a presynaptic spike arriving at the synapse: ``w -= eta_pre * x_post`` and
-    ``x_pre = 1``. On a postsynaptic spike: ``w += eta_post * (x_pre - x_tar) *
-    (w_max - w) ** mu`` and ``x_post = 1``. Traces decay with ``tau_pre`` and
-    ``tau_post``; weights stay within ``[0, w_max]``.
+    Traces are *set* to 1 at a spike (nearest-spike interaction, as in Diehl &
+    Cook's code) and decay exponentially. On a presynaptic spike arriving at the
+    synapse: ``w -= eta_pre * x_post``, then ``x_pre = 1``. On a postsynaptic spike:
+    ``w += eta_post * (x_pre - x_tar) * (w_max - w) ** mu * y``, then ``x_post = 1``,
+    where ``y = 1`` (the paper's equation) or, when ``tau_post2`` is given, the value
+    of a second postsynaptic trace just before this spike (the triplet form of
+    Diehl & Cook's published code, used with ``mu = 0``). Weights stay within
+    ``[0, w_max]``.
     """
 
     plastic = True
@@ -186,8 +190,14 @@ class DiehlCookSTDP(Synapse):
     mu: float = param(1.0, low=0.0)
     tau_pre: float = param(20.0, unit="ms", low=0.0, low_open=True)
     tau_post: float = param(20.0, unit="ms", low=0.0, low_open=True)
+    tau_post2: float | None = None
 
     def _validate(self) -> None:
+        if self.tau_post2 is not None:
+            t2 = self.tau_post2
+            if isinstance(t2, bool) or not isinstance(t2, (int, float, np.integer, np.floating)) or not t2 > 0:
+                raise ValidationError(f"DiehlCookSTDP.tau_post2 must be None or > 0 ms, got {t2!r}.")
+            object.__setattr__(self, "tau_post2", float(t2))
         _check_initial_weight(self, 0.0, self.w_max)
 
     @property

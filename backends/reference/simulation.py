@@ -1,0 +1,281 @@
+"""ReferenceSimulation: state, inputs and read-out around the compiled step loop."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from typing import Any
+
+import numpy as np
+
+from neurovpr.cells import IF_cond_exp_adaptive, SpikeSourceArray, SpikeSourcePoisson
+from neurovpr.errors import ValidationError
+from neurovpr.network import Network
+from neurovpr.simulation import Simulation
+
+from . import kernels
+from .translation import C_I_CA_INIT, C_V_INIT, KIND_POISSON, VAR_CODES, build_layout
+
+_PAST = -(2**40)
+
+
+class ReferenceSimulation(Simulation):
+    """A network compiled for the reference backend.
+
+    Parameters
+    ----------
+    network, dt, seed
+        See :func:`neurovpr.compile`.
+    hardware
+        Not supported yet by this backend (refused by its capabilities).
+    record_spikes
+        Names of the populations whose spike trains are kept (default: all). Spike
+        counts are always kept; leaving trains out saves memory in long training runs.
+    """
+
+    def __init__(
+        self,
+        network: Network,
+        *,
+        dt: float,
+        seed: int,
+        hardware: Any = None,
+        record_spikes: Iterable[str] | None = None,
+    ) -> None:
+        super().__init__(network, backend="reference", dt=dt, seed=seed)
+        lay = self._lay = build_layout(network, dt, seed)
+        n = lay.n
+        self._rec_mask = np.zeros(n, dtype=np.bool_)
+        names = list(network.populations) if record_spikes is None else list(record_spikes)
+        for name in names:
+            if name not in lay.offsets:
+                raise ValidationError(f"record_spikes: population {name!r} does not exist.")
+            lo, hi = lay.offsets[name]
+            self._rec_mask[lo:hi] = True
+        self._theta = np.zeros(n)
+        for name, pop in network.populations.items():
+            if isinstance(pop.cell_type, IF_cond_exp_adaptive):
+                lo, hi = lay.offsets[name]
+                self._theta[lo:hi] = pop.cell_type.theta_init
+        seed_state = np.random.SeedSequence(seed).generate_state(2, dtype=np.uint64)
+        self._rng = np.array([seed_state[0] | np.uint64(1)], dtype=np.uint64)
+        # Poisson sources
+        self._pois_idx = np.flatnonzero(lay.kind == KIND_POISSON).astype(np.int64)
+        self._pois_rate = np.zeros(self._pois_idx.size)
+        self._pois_start = np.zeros(self._pois_idx.size, dtype=np.int64)
+        self._pois_end = np.zeros(self._pois_idx.size, dtype=np.int64)
+        self._pois_pos: dict[str, slice] = {}
+        pos = 0
+        self._arrays: dict[str, SpikeSourceArray] = {}
+        for name, pop in network.populations.items():
+            cell = pop.cell_type
+            if isinstance(cell, SpikeSourcePoisson):
+                sl = slice(pos, pos + pop.size)
+                self._pois_pos[name] = sl
+                self._pois_rate[sl] = cell.rate
+                self._pois_start[sl] = math.ceil(cell.start / dt - 1e-9)
+                end = cell.start + cell.duration
+                self._pois_end[sl] = kernels.NEVER if math.isinf(end) else math.ceil(end / dt - 1e-9)
+                pos += pop.size
+            elif isinstance(cell, SpikeSourceArray):
+                self._arrays[name] = cell
+        self._pois_logq = np.zeros(self._pois_idx.size)
+        self._pois_next = np.zeros(self._pois_idx.size, dtype=np.int64)
+        self._update_rates()
+        self._stats = np.zeros(5, dtype=np.int64)
+        self._recorders: dict[tuple[str, str], list[np.ndarray]] = {}
+        self._var_keys: list[tuple[str, str]] = []
+        self._var_idx = np.zeros(0, dtype=np.int64)
+        self._var_code = np.zeros(0, dtype=np.int64)
+        self._reset_state()
+
+    # -- state -----------------------------------------------------------------
+    def _reset_state(self) -> None:
+        lay = self._lay
+        n = lay.n
+        self._step = 0
+        self._v = lay.params[:, C_V_INIT].copy()
+        self._ie = np.zeros(n)
+        self._ii = np.zeros(n)
+        self._ica = lay.params[:, C_I_CA_INIT].copy()
+        self._refr = np.zeros(n, dtype=np.int64)
+        self._counts = np.zeros(n, dtype=np.int64)
+        self._buf_e = np.zeros((lay.ring, n))
+        self._buf_i = np.zeros((lay.ring, n))
+        n_seg = lay.seg_delay.size
+        self._p_xpre = np.zeros(lay.p_w.size)
+        self._p_last = np.full(lay.p_w.size, _PAST, dtype=np.int64)
+        self._xpost1 = np.zeros(lay.n_traces)
+        self._xpost2 = np.zeros(lay.n_traces)
+        self._last_post = np.full(lay.n_traces, _PAST, dtype=np.int64)
+        self._spike_chunks: list[tuple[np.ndarray, np.ndarray]] = []
+        for key in self._recorders:
+            self._recorders[key] = []
+        self._build_array_events()
+        self._ev = np.zeros((lay.ring, max(1, n_seg * self._multiplicity)), dtype=np.int64)
+        self._ev_n = np.zeros(lay.ring, dtype=np.int64)
+        kernels.draw_poisson(0, self._pois_idx, self._pois_logq, self._pois_next, self._rng)
+        cap = max(1 << 16, 4 * self._headroom)
+        self._rec_t = np.zeros(cap, dtype=np.int64)
+        self._rec_i = np.zeros(cap, dtype=np.int64)
+        self._rec_n = np.zeros(1, dtype=np.int64)
+
+    def _build_array_events(self) -> None:
+        steps, neurons = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+        for name, src in self._arrays.items():
+            lo = self._lay.offsets[name][0]
+            counts = np.diff(src.offsets)
+            steps.append(np.rint(src.times / self._dt).astype(np.int64))
+            neurons.append(np.repeat(np.arange(src.n_neurons, dtype=np.int64) + lo, counts))
+        st, ne = np.concatenate(steps), np.concatenate(neurons)
+        order = np.lexsort((ne, st))
+        self._arr_step, self._arr_neuron = st[order], ne[order]
+        self._arr_ptr = np.array([np.searchsorted(self._arr_step, self._step, side="left")], dtype=np.int64)
+        per_step = np.unique(self._arr_step, return_counts=True)[1] if st.size else np.zeros(1, np.int64)
+        pair = np.unique(self._arr_step * self._lay.n + self._arr_neuron, return_counts=True)[1] if st.size else [1]
+        self._multiplicity = int(max(1, np.max(pair)))
+        self._headroom = int(self._lay.n + (per_step.max() if per_step.size else 0))
+
+    def _update_rates(self) -> None:
+        p = np.minimum(self._pois_rate * self._dt / 1000.0, 1.0)
+        with np.errstate(divide="ignore"):
+            self._pois_logq = np.where(p >= 1.0, -np.inf, np.log1p(-p))
+
+    # -- Simulation hooks ---------------------------------------------------------
+    @property
+    def time(self) -> float:
+        return self._step * self._dt
+
+    def _set_input(self, population: str, value: Any) -> None:
+        if isinstance(value, SpikeSourceArray):
+            self._arrays[population] = value
+            old_ring = self._ev.shape[1]
+            self._build_array_events()
+            need = max(1, self._lay.seg_delay.size * self._multiplicity)
+            if need > old_ring:
+                grown = np.zeros((self._lay.ring, need), dtype=np.int64)
+                grown[:, :old_ring] = self._ev
+                self._ev = grown
+            if self._rec_t.size < 4 * self._headroom:
+                self._grow_record(4 * self._headroom)
+        else:
+            self._pois_rate[self._pois_pos[population]] = value
+            self._update_rates()
+            kernels.draw_poisson(self._step, self._pois_idx, self._pois_logq, self._pois_next, self._rng)
+
+    def _grow_record(self, size: int) -> None:
+        for attr in ("_rec_t", "_rec_i"):
+            old = getattr(self, attr)
+            new = np.zeros(size, dtype=np.int64)
+            new[: old.size] = old
+            setattr(self, attr, new)
+
+    def _run(self, n_steps: int) -> None:
+        lay = self._lay
+        j0, j1 = self._step, self._step + n_steps
+        var_out = np.zeros((n_steps, self._var_idx.size))
+        j = j0
+        while j < j1:
+            reached = kernels.run_steps(
+                j, j1, self._dt, self._plastic, lay.kind, lay.params, self._v, self._ie, self._ii, self._theta,
+                self._ica, self._refr, self._counts, self._buf_e, self._buf_i,
+                lay.s_ptr, lay.s_post, lay.s_w, lay.s_delay, lay.s_inh,
+                lay.row_seg_ptr, lay.seg_start, lay.seg_delay, lay.p_post, lay.p_w, lay.p_proj, lay.p_inh,
+                lay.p_trace, self._p_xpre, self._p_last, lay.post_ptr, lay.post_syn, lay.post_tr_ptr,
+                lay.post_tr_idx, lay.trace_proj, lay.rules, self._xpost1, self._xpost2, self._last_post,
+                self._ev, self._ev_n, self._pois_idx, self._pois_logq, self._pois_next, self._pois_start,
+                self._pois_end, self._arr_step, self._arr_neuron, self._arr_ptr, self._rng,
+                self._rec_mask, self._rec_t, self._rec_i, self._rec_n, self._headroom,
+                self._var_idx, self._var_code, var_out[j - j0 :], self._stats,
+            )  # fmt: skip
+            self._flush_spikes()
+            j = reached
+        self._step = j1
+        if self._var_idx.size:
+            for col, key in enumerate(self._var_keys):
+                self._recorders[key].append(var_out[:, col])
+
+    def _flush_spikes(self) -> None:
+        m = int(self._rec_n[0])
+        if m:
+            self._spike_chunks.append((self._rec_t[:m].copy(), self._rec_i[:m].copy()))
+            self._rec_n[0] = 0
+
+    def _reset(self) -> None:
+        self._reset_state()
+
+    def _set_plasticity(self, on: bool) -> None:
+        pass  # read by _run
+
+    def _set_recording(self, population: str, variable: str, neurons: np.ndarray) -> None:
+        lo = self._lay.offsets[population][0]
+        code = VAR_CODES[variable]
+        keys = [(population, variable, int(i)) for i in neurons]
+        kept = [k for k in self._var_keys if (k[0], k[1]) != (population, variable)]
+        self._var_keys = kept + keys  # type: ignore[operator]
+        self._var_idx = np.array([self._lay.offsets[k[0]][0] + k[2] for k in self._var_keys], dtype=np.int64)
+        self._var_code = np.array([VAR_CODES[k[1]] for k in self._var_keys], dtype=np.int64)
+        self._recorders = {k: self._recorders.get(k, []) for k in self._var_keys}  # type: ignore[misc]
+        del lo, code
+
+    def _spike_counts(self, population: str) -> np.ndarray:
+        lo, hi = self._lay.offsets[population]
+        return self._counts[lo:hi].copy()
+
+    def _spike_trains(self, population: str) -> tuple[np.ndarray, np.ndarray]:
+        lo, hi = self._lay.offsets[population]
+        if not self._rec_mask[lo]:
+            raise ValidationError(
+                f"spike_trains: population {population!r} was left out of record_spikes at compile time."
+            )
+        if not self._spike_chunks:
+            return np.zeros(0), np.zeros(0, dtype=np.int64)
+        t = np.concatenate([c[0] for c in self._spike_chunks])
+        i = np.concatenate([c[1] for c in self._spike_chunks])
+        keep = (i >= lo) & (i < hi)
+        t, i = t[keep], i[keep] - lo
+        order = np.lexsort((i, t))
+        return t[order] * self._dt, i[order]
+
+    def _trace(self, population: str, variable: str) -> tuple[np.ndarray, np.ndarray]:
+        keys = [k for k in self._var_keys if (k[0], k[1]) == (population, variable)]  # type: ignore[index]
+        n_steps = len(self._recorders[keys[0]]) and sum(c.size for c in self._recorders[keys[0]])  # type: ignore[index]
+        values = np.zeros((n_steps, len(keys)))
+        for col, key in enumerate(keys):
+            if self._recorders[key]:  # type: ignore[index]
+                values[:, col] = np.concatenate(self._recorders[key])  # type: ignore[index]
+        times = (np.arange(n_steps) + 1 + (self._step - n_steps)) * self._dt
+        return times, values
+
+    def _connections(self, projection: str) -> tuple[np.ndarray, np.ndarray]:
+        return self._lay.proj_pre[projection], self._lay.proj_post[projection]
+
+    def _weight_store(self, projection: str) -> tuple[np.ndarray, np.ndarray]:
+        if projection in self._lay.proj_plastic:
+            return self._lay.p_w, self._lay.proj_plastic[projection]
+        return self._lay.s_w, self._lay.proj_static[projection]
+
+    def _weights(self, projection: str) -> np.ndarray:
+        store, pos = self._weight_store(projection)
+        return store[pos].copy()
+
+    def _set_weights(self, projection: str, values: np.ndarray) -> None:
+        store, pos = self._weight_store(projection)
+        store[pos] = values
+
+    def _learned_state(self, population: str) -> dict[str, np.ndarray]:
+        pop = self._network.populations[population]
+        if isinstance(pop.cell_type, IF_cond_exp_adaptive):
+            lo, hi = self._lay.offsets[population]
+            return {"theta": self._theta[lo:hi].copy()}
+        return {}
+
+    def _statistics(self) -> dict[str, int]:
+        s = self._stats
+        return {
+            "steps": int(s[kernels.ST_STEPS]),
+            "neuron_updates": int(s[kernels.ST_NEURON_UPDATES]),
+            "spikes": int(s[kernels.ST_SPIKES]),
+            "synaptic_events": int(s[kernels.ST_SYN_EVENTS]),
+            "plastic_updates": int(s[kernels.ST_PLASTIC_UPDATES]),
+        }

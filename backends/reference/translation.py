@@ -1,0 +1,309 @@
+"""Translation of the IR into the flat arrays the reference kernels run on.
+
+All neurons of all populations share one global index space (populations in
+insertion order). Per-neuron parameters become columns of one ``(N, K)`` array of
+exact-integration propagators; static synapses become a CSR matrix by global
+presynaptic index; plastic synapses a second CSR whose rows are split into
+*segments* of equal delay, so a presynaptic spike schedules one event per segment.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from neurovpr.cells import (
+    IF_cond_exp,
+    IF_cond_exp_adaptive,
+    IF_curr_exp,
+    IF_curr_exp_ca2_adaptive,
+    SpikeSourceArray,
+    SpikeSourcePoisson,
+)
+from neurovpr.connectivity import expand
+from neurovpr.network import Network
+from neurovpr.synapses import DiehlCookSTDP, MultiplicativeWeightDependence, STDPMechanism
+
+# Neuron kinds.
+KIND_CURR, KIND_COND, KIND_POISSON, KIND_ARRAY = 0, 1, 2, 3
+
+# Columns of the neuron parameter table.
+(
+    C_V_REST,
+    C_V_RESET,
+    C_V_THRESH,
+    C_I_OFFSET,
+    C_P22,  # exp(-dt/tau_m)
+    C_P20,  # (tau_m/cm)(1 - P22): i_offset -> v
+    C_P11E,  # exp(-dt/tau_syn_E)
+    C_P11I,
+    C_P21E,  # I_E(t) -> v over one step (current-based)
+    C_P21I,
+    C_FE,  # mean of a decaying conductance over one step, relative to its start value
+    C_FI,
+    C_GL,  # leak conductance cm/tau_m
+    C_CM,
+    C_E_REV_E,
+    C_E_REV_I,
+    C_THETA_PLUS,
+    C_THETA_DECAY,  # exp(-dt/tau_theta)
+    C_P11CA,  # exp(-dt/tau_ca2)
+    C_P21CA,  # I_ca2 -> v
+    C_I_ALPHA,
+    C_REFRAC,  # refractory steps
+    C_V_INIT,
+    C_I_CA_INIT,
+    N_COLS,
+) = range(25)
+
+# Rule kinds and columns of the plasticity rule table.
+RULE_ADDITIVE, RULE_MULTIPLICATIVE, RULE_DIEHL_COOK = 0, 1, 2
+(R_KIND, R_POT, R_DEP, R_W_MIN, R_W_MAX, R_TAU_PRE, R_TAU_POST, R_MU, R_X_TAR, R_TAU_POST2, N_RULE_COLS) = range(11)
+
+# Recordable variable codes.
+VAR_CODES = {"v": 0, "isyn_exc": 1, "gsyn_exc": 1, "isyn_inh": 2, "gsyn_inh": 2, "theta": 3, "i_ca2": 4}
+
+
+def _col(value: object, n: int) -> np.ndarray:
+    return np.broadcast_to(np.asarray(value, dtype=np.float64), (n,)).copy()
+
+
+def _psc_propagator(dt: float, tau_s: np.ndarray, tau_m: np.ndarray, cm: np.ndarray) -> np.ndarray:
+    """Exact effect on v after one step of an exponentially decaying current of 1 nA."""
+    a = 1.0 / tau_m - 1.0 / tau_s
+    out = np.empty_like(tau_s)
+    small = np.abs(a * dt) < 1e-8
+    out[small] = dt * np.exp(-dt / tau_m[small]) / cm[small]
+    big = ~small
+    out[big] = np.exp(-dt / tau_m[big]) * np.expm1(dt * a[big]) / (a[big] * cm[big])
+    return out
+
+
+def neuron_table(cell: object, n: int, dt: float, v_init: object) -> tuple[int, np.ndarray]:
+    """The kind and ``(n, N_COLS)`` parameter table of a population."""
+    table = np.zeros((n, N_COLS))
+    if isinstance(cell, (SpikeSourcePoisson, SpikeSourceArray)):
+        return (KIND_POISSON if isinstance(cell, SpikeSourcePoisson) else KIND_ARRAY), table
+    assert isinstance(cell, (IF_curr_exp, IF_cond_exp, IF_cond_exp_adaptive, IF_curr_exp_ca2_adaptive))
+    g = {name: _col(getattr(cell, name), n) for name in ("cm", "tau_m", "tau_refrac", "tau_syn_E", "tau_syn_I")}
+    table[:, C_V_REST] = _col(cell.v_rest, n)
+    table[:, C_V_RESET] = _col(cell.v_reset, n)
+    table[:, C_V_THRESH] = _col(cell.v_thresh, n)
+    table[:, C_I_OFFSET] = _col(cell.i_offset, n)
+    table[:, C_P22] = np.exp(-dt / g["tau_m"])
+    table[:, C_P20] = g["tau_m"] / g["cm"] * -np.expm1(-dt / g["tau_m"])
+    table[:, C_P11E] = np.exp(-dt / g["tau_syn_E"])
+    table[:, C_P11I] = np.exp(-dt / g["tau_syn_I"])
+    table[:, C_P21E] = _psc_propagator(dt, g["tau_syn_E"], g["tau_m"], g["cm"])
+    table[:, C_P21I] = _psc_propagator(dt, g["tau_syn_I"], g["tau_m"], g["cm"])
+    table[:, C_FE] = g["tau_syn_E"] / dt * -np.expm1(-dt / g["tau_syn_E"])
+    table[:, C_FI] = g["tau_syn_I"] / dt * -np.expm1(-dt / g["tau_syn_I"])
+    table[:, C_GL] = g["cm"] / g["tau_m"]
+    table[:, C_CM] = g["cm"]
+    table[:, C_REFRAC] = np.rint(g["tau_refrac"] / dt)
+    table[:, C_THETA_DECAY] = 1.0
+    table[:, C_P11CA] = 1.0
+    table[:, C_V_INIT] = table[:, C_V_REST] if v_init is None else _col(v_init, n)
+    kind = KIND_CURR
+    if isinstance(cell, (IF_cond_exp, IF_cond_exp_adaptive)):
+        kind = KIND_COND
+        table[:, C_E_REV_E] = _col(cell.e_rev_E, n)
+        table[:, C_E_REV_I] = _col(cell.e_rev_I, n)
+    if isinstance(cell, IF_cond_exp_adaptive):
+        table[:, C_THETA_PLUS] = _col(cell.theta_plus, n)
+        table[:, C_THETA_DECAY] = np.exp(-dt / _col(cell.tau_theta, n))
+    if isinstance(cell, IF_curr_exp_ca2_adaptive):
+        tau_ca = _col(cell.tau_ca2, n)
+        table[:, C_P11CA] = np.exp(-dt / tau_ca)
+        table[:, C_P21CA] = _psc_propagator(dt, tau_ca, g["tau_m"], g["cm"])
+        table[:, C_I_ALPHA] = _col(cell.i_alpha, n)
+        table[:, C_I_CA_INIT] = _col(cell.i_ca2, n)
+    return kind, table
+
+
+def rule_row(syn: object) -> np.ndarray:
+    """The plasticity rule table row of a plastic synapse type."""
+    row = np.zeros(N_RULE_COLS)
+    if isinstance(syn, STDPMechanism):
+        td, wd = syn.timing_dependence, syn.weight_dependence
+        row[R_KIND] = RULE_MULTIPLICATIVE if isinstance(wd, MultiplicativeWeightDependence) else RULE_ADDITIVE
+        row[R_POT], row[R_DEP] = td.A_plus, td.A_minus
+        row[R_W_MIN], row[R_W_MAX] = wd.w_min, wd.w_max
+        row[R_TAU_PRE], row[R_TAU_POST] = td.tau_plus, td.tau_minus
+    elif isinstance(syn, DiehlCookSTDP):
+        row[R_KIND] = RULE_DIEHL_COOK
+        row[R_POT], row[R_DEP] = syn.eta_post, syn.eta_pre
+        row[R_W_MIN], row[R_W_MAX] = 0.0, syn.w_max
+        row[R_TAU_PRE], row[R_TAU_POST] = syn.tau_pre, syn.tau_post
+        row[R_MU], row[R_X_TAR] = syn.mu, syn.x_tar
+        row[R_TAU_POST2] = syn.tau_post2 or 0.0
+    else:  # pragma: no cover - capabilities exclude other types
+        raise TypeError(type(syn).__name__)
+    return row
+
+
+@dataclass
+class Layout:
+    """Everything the kernels need, as contiguous arrays (built once per compile)."""
+
+    n: int
+    offsets: dict[str, tuple[int, int]]
+    kind: np.ndarray
+    params: np.ndarray
+    # static synapses, CSR by global pre
+    s_ptr: np.ndarray
+    s_post: np.ndarray
+    s_w: np.ndarray
+    s_delay: np.ndarray
+    s_inh: np.ndarray
+    # plastic synapses, CSR by global pre split into equal-delay segments
+    row_seg_ptr: np.ndarray
+    seg_start: np.ndarray
+    seg_delay: np.ndarray
+    p_post: np.ndarray
+    p_w: np.ndarray
+    p_proj: np.ndarray
+    p_inh: np.ndarray
+    p_trace: np.ndarray
+    post_ptr: np.ndarray
+    post_syn: np.ndarray
+    post_tr_ptr: np.ndarray
+    post_tr_idx: np.ndarray
+    trace_proj: np.ndarray
+    rules: np.ndarray
+    n_traces: int
+    ring: int
+    # per projection: where its canonical connections live
+    proj_static: dict[str, np.ndarray]
+    proj_plastic: dict[str, np.ndarray]
+    proj_pre: dict[str, np.ndarray]
+    proj_post: dict[str, np.ndarray]
+
+
+def build_layout(network: Network, dt: float, seed: int) -> Layout:
+    """Expand every projection and lay the network out as kernel arrays."""
+    offsets: dict[str, tuple[int, int]] = {}
+    kinds, tables = [], []
+    start = 0
+    for pop in network.populations.values():
+        kind, table = neuron_table(pop.cell_type, pop.size, dt, pop.v_init)
+        offsets[pop.name] = (start, start + pop.size)
+        kinds.append(np.full(pop.size, kind, dtype=np.int8))
+        tables.append(table)
+        start += pop.size
+    n = start
+    kind = np.concatenate(kinds)
+    params = np.ascontiguousarray(np.concatenate(tables))
+
+    st = {k: [] for k in ("pre", "post", "w", "d", "inh", "proj", "canon")}
+    pl = {k: [] for k in ("pre", "post", "w", "d", "inh", "proj", "canon", "trace")}
+    rules, proj_pre, proj_post = [], {}, {}
+    trace_proj: list[np.ndarray] = []
+    n_traces = 0
+    static_names, plastic_names = [], []
+    for proj in network.projections.values():
+        conns = expand(network, proj, dt=dt, seed=seed)
+        pre0, post0 = offsets[proj.pre][0], offsets[proj.post][0]
+        steps = np.maximum(1, np.rint(conns.delay / dt)).astype(np.int64)
+        proj_pre[proj.name], proj_post[proj.name] = conns.pre, conns.post
+        inh = np.full(len(conns), proj.receptor_type == "inhibitory")
+        target = pl if proj.plastic else st
+        pid = len(plastic_names) if proj.plastic else len(static_names)
+        (plastic_names if proj.plastic else static_names).append(proj.name)
+        target["pre"].append(conns.pre + pre0)
+        target["post"].append(conns.post + post0)
+        target["w"].append(conns.weight)
+        target["d"].append(steps)
+        target["inh"].append(inh)
+        target["proj"].append(np.full(len(conns), pid, dtype=np.int64))
+        target["canon"].append(np.arange(len(conns)))
+        if proj.plastic:
+            rules.append(rule_row(proj.synapse))
+            n_post = network.populations[proj.post].size
+            target["trace"].append(n_traces + conns.post)
+            trace_proj.append(np.full(n_post, pid, dtype=np.int64))
+            n_traces += n_post
+
+    def cat(parts: list[np.ndarray], dtype: object) -> np.ndarray:
+        return np.concatenate(parts).astype(dtype) if parts else np.zeros(0, dtype=dtype)
+
+    # static CSR ordered by (pre, projection, canonical index)
+    s_pre = cat(st["pre"], np.int64)
+    order = np.lexsort((cat(st["canon"], np.int64), cat(st["proj"], np.int64), s_pre))
+    s_ptr = np.concatenate([[0], np.cumsum(np.bincount(s_pre, minlength=n))]).astype(np.int64)
+    proj_static = _positions(order, st["proj"], static_names)
+    # plastic CSR ordered by (pre, projection, delay, canonical index)
+    p_pre = cat(pl["pre"], np.int64)
+    p_projs = cat(pl["proj"], np.int64)
+    p_d = cat(pl["d"], np.int64)
+    porder = np.lexsort((cat(pl["canon"], np.int64), p_d, p_projs, p_pre))
+    proj_plastic = _positions(porder, pl["proj"], plastic_names)
+    p_pre_s, p_proj_s, p_d_s = p_pre[porder], p_projs[porder], p_d[porder]
+    if p_pre_s.size:
+        new_seg = np.ones(p_pre_s.size, dtype=bool)
+        new_seg[1:] = (p_pre_s[1:] != p_pre_s[:-1]) | (p_proj_s[1:] != p_proj_s[:-1]) | (p_d_s[1:] != p_d_s[:-1])
+        seg_first = np.flatnonzero(new_seg)
+    else:
+        seg_first = np.zeros(0, dtype=np.int64)
+    seg_start = np.concatenate([seg_first, [p_pre_s.size]]).astype(np.int64)
+    seg_delay = p_d_s[seg_first].astype(np.int64)
+    seg_pre = p_pre_s[seg_first]
+    row_seg_ptr = np.concatenate([[0], np.cumsum(np.bincount(seg_pre, minlength=n))]).astype(np.int64)
+    p_post = cat(pl["post"], np.int64)[porder]
+    post_order = np.argsort(p_post, kind="stable")
+    post_ptr = np.concatenate([[0], np.cumsum(np.bincount(p_post, minlength=n))]).astype(np.int64)
+    p_trace = cat(pl["trace"], np.int64)[porder]
+    # which post traces belong to each neuron
+    tr_neuron = np.zeros(n_traces, dtype=np.int64)
+    base = 0
+    for proj_name in plastic_names:
+        lo, hi = offsets[network.projections[proj_name].post]
+        tr_neuron[base : base + hi - lo] = np.arange(lo, hi)
+        base += hi - lo
+    tr_order = np.argsort(tr_neuron, kind="stable")
+    post_tr_ptr = np.concatenate([[0], np.cumsum(np.bincount(tr_neuron, minlength=n))]).astype(np.int64)
+    all_d = np.concatenate([cat(st["d"], np.int64), p_d, [1]])
+    return Layout(
+        n=n,
+        offsets=offsets,
+        kind=kind,
+        params=params,
+        s_ptr=s_ptr,
+        s_post=cat(st["post"], np.int64)[order],
+        s_w=cat(st["w"], np.float64)[order],
+        s_delay=cat(st["d"], np.int64)[order],
+        s_inh=cat(st["inh"], np.bool_)[order],
+        row_seg_ptr=row_seg_ptr,
+        seg_start=seg_start,
+        seg_delay=seg_delay,
+        p_post=p_post,
+        p_w=cat(pl["w"], np.float64)[porder],
+        p_proj=p_proj_s,
+        p_inh=cat(pl["inh"], np.bool_)[porder],
+        p_trace=p_trace,
+        post_ptr=post_ptr,
+        post_syn=post_order.astype(np.int64),
+        post_tr_ptr=post_tr_ptr,
+        post_tr_idx=tr_order.astype(np.int64),
+        trace_proj=cat(trace_proj, np.int64),
+        rules=np.ascontiguousarray(np.array(rules).reshape(-1, N_RULE_COLS)),
+        n_traces=n_traces,
+        ring=int(all_d.max()) + 2,
+        proj_static=proj_static,
+        proj_plastic=proj_plastic,
+        proj_pre=proj_pre,
+        proj_post=proj_post,
+    )
+
+
+def _positions(order: np.ndarray, proj_parts: list[np.ndarray], names: list[str]) -> dict[str, np.ndarray]:
+    """For each projection, the position in the sorted synapse arrays of each canonical connection."""
+    inverse = np.empty_like(order)
+    inverse[order] = np.arange(order.size)
+    out, start = {}, 0
+    for name, part in zip(names, proj_parts, strict=True):
+        out[name] = inverse[start : start + part.size]
+        start += part.size
+    return out
+

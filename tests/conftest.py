@@ -1,0 +1,18 @@
+"""Shared fixtures: the optional real-data folder and the installed backends."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from neurovpr.paths import shared_datasets
+
+
+@pytest.fixture(scope="session")
+def shared_data() -> Path:
+    """The real datasets folder; tests using it skip with a reason when it is absent."""
+    path = shared_datasets()
+    if path is None:
+        pytest.skip("real datasets not found: set NEUROVPR_SHARED_DATA or place them in ../shared/datasets")
+    return path
