@@ -1,0 +1,72 @@
+"""Backends' declarations about the suite are well formed (runs without any simulator)."""
+
+from __future__ import annotations
+
+import dataclasses
+from types import MappingProxyType
+
+import pytest
+
+import neurovpr as nv
+from neurovpr.backend import Backend, Capabilities
+
+from .cases import CASES
+from .target import Target, declared_backends
+from .tolerances import DEFAULT, OVERRIDES, Tolerances
+
+_DECLARED = declared_backends()
+
+
+@pytest.mark.parametrize("name", [n for n, info in _DECLARED.items() if info.backend is not None])
+def test_unsupported_cases_are_known_and_explained(name):
+    """Every case a backend lists as unsupported exists and comes with a reason."""
+    unsupported = _DECLARED[name].backend.capabilities.unsupported
+    for case, reason in unsupported.items():
+        assert case in CASES, f"backend {name!r} lists unknown conformance case {case!r}"
+        assert isinstance(reason, str) and reason.strip(), f"backend {name!r} gives no reason for {case!r}"
+
+
+def test_tolerance_overrides_are_explained_and_only_loosen():
+    """Every tolerance override names a declared backend and a known case, gives a
+    reason, and only loosens a default bound."""
+    fields = {f.name for f in dataclasses.fields(Tolerances)}
+    for name, by_case in OVERRIDES.items():
+        assert name in _DECLARED, f"tolerance override for undeclared backend {name!r}"
+        for case, override in by_case.items():
+            assert case in CASES, f"tolerance override {name!r}: unknown case {case!r}"
+            assert override.reason.strip(), f"tolerance override {name!r}/{case!r} gives no reason"
+            for key, value in override.changes.items():
+                assert key in fields, f"tolerance override {name!r}/{case!r}: unknown bound {key!r}"
+                assert value >= getattr(DEFAULT, key), f"override {name!r}/{case!r} tightens {key!r}"
+
+
+class _Limited(Backend):
+    """A declaration only (never compiled): no conductance-based cells, no Poisson case."""
+
+    name = "limited"
+    capabilities = Capabilities(
+        cell_types=frozenset({"IF_curr_exp", "SpikeSourceArray"}),
+        connectors=frozenset({"AllToAllConnector"}),
+        synapses=frozenset({"StaticSynapse"}),
+        learns=False,
+        heterogeneous_delays=False,
+        unsupported=MappingProxyType({"poisson": "its random numbers come from the chip"}),
+    )
+
+
+def test_missing_features_skip_with_their_reason():
+    """A case the backend lists, or a feature it lacks, skips naming the reason (never silently)."""
+    target = Target("limited", _Limited())
+    with pytest.raises(pytest.skip.Exception, match="case 'poisson' unsupported: its random numbers come from the chip"):
+        target.require("poisson")
+    net = nv.Network("needs")
+    net.add_population("src", 1, nv.SpikeSourceArray.from_lists([[1.0]]))
+    net.add_population("cond", 1, nv.IF_cond_exp())
+    net.connect("src", "cond", nv.OneToOneConnector(), nv.STDPMechanism(weight=0.1))
+    with pytest.raises(pytest.skip.Exception) as info:
+        target.require("psp_cond", net, recordables=("gsyn_exc",), heterogeneous_delays=True)
+    message = str(info.value)
+    for part in ("IF_cond_exp", "OneToOneConnector", "STDPMechanism", "on-line learning", "'gsyn_exc'",
+                 "heterogeneous delays", "psp_cond"):
+        assert part in message, message
+    target.require("psp_curr")  # nothing missing: no skip
