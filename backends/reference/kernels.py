@@ -98,13 +98,6 @@ def draw_poisson(j: int, idx: np.ndarray, log_q: np.ndarray, nxt: np.ndarray, rn
         nxt[k] = NEVER if g == NEVER else j + g
 
 
-@njit(cache=True, inline="always")
-def _decay(x: float, steps: np.int64, dt: float, tau: float) -> float:
-    if x == 0.0:
-        return 0.0
-    return x * np.exp(-steps * dt / tau)
-
-
 @njit(cache=True)
 def emit(
     i, stamp, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_post, s_w, s_delay, s_inh,
@@ -137,8 +130,8 @@ def run_steps(
     j0, j1, dt, plastic_on, kind, params, v, ie, ii, theta, ica, refr, counts, buf_e, buf_i,
     s_ptr, s_post, s_w, s_delay, s_inh,
     row_seg_ptr, seg_start, seg_delay, p_post, p_w, p_proj, p_inh, p_trace, p_xpre, p_last,
-    post_ptr, post_syn, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2, last_post, ev, ev_n,
-    pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng,
+    post_ptr, post_syn, post_tr_ptr, post_tr_idx, trace_proj, rules, pre_table, post_decay1, post_decay2,
+    xpost1, xpost2, ev, ev_n, pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng,
     rec_mask, rec_t, rec_i, rec_n, headroom, var_idx, var_code, var_out, stats,
 ):  # fmt: skip
     """Advance from step ``j0`` to ``j1`` (exclusive); return the step reached.
@@ -170,7 +163,7 @@ def run_steps(
                 emit(arr_neuron[arr_ptr[0]], j, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_post, s_w,
                      s_delay, s_inh, buf_e, buf_i, row_seg_ptr, seg_delay, ev, ev_n, stats)  # fmt: skip
             arr_ptr[0] += 1
-        # 2. arrivals at plastic synapses
+        # 2. arrivals at plastic synapses (post traces hold their value at time j)
         for e in range(ev_n[slot]):
             g = ev[slot, e]
             for k in range(seg_start[g], seg_start[g + 1]):
@@ -180,27 +173,29 @@ def run_steps(
                     ii[post] += p_w[k]
                 else:
                     ie[post] += p_w[k]
-                tr = p_trace[k]
-                x_post = _decay(xpost1[tr], j - last_post[tr], dt, rules[r, R_TAU_POST])
+                x_post = xpost1[p_trace[k]]
                 rk = rules[r, R_KIND]
-                w = p_w[k]
                 if plastic_on and x_post != 0.0:
+                    w = p_w[k]
                     if rk == RULE_ADDITIVE:
                         w -= rules[r, R_DEP] * rules[r, R_W_MAX] * x_post
                     elif rk == RULE_MULTIPLICATIVE:
                         w -= rules[r, R_DEP] * (w - rules[r, R_W_MIN]) * x_post
                     else:
                         w -= rules[r, R_DEP] * x_post
-                    w = min(max(w, rules[r, R_W_MIN]), rules[r, R_W_MAX])
-                    p_w[k] = w
+                    p_w[k] = min(max(w, rules[r, R_W_MIN]), rules[r, R_W_MAX])
                     stats[ST_PLASTIC_UPDATES] += 1
                 if rk == RULE_DIEHL_COOK:
                     p_xpre[k] = 1.0
                 else:
-                    p_xpre[k] = _decay(p_xpre[k], j - p_last[k], dt, rules[r, R_TAU_PRE]) + 1.0
+                    p_xpre[k] = _table_decay(p_xpre[k], j - p_last[k], pre_table, r, dt, rules[r, R_TAU_PRE]) + 1.0
                 p_last[k] = j
             stats[ST_SYN_EVENTS] += seg_start[g + 1] - seg_start[g]
         ev_n[slot] = 0
+        # postsynaptic traces advance to the end of the step
+        for tr in range(xpost1.size):
+            xpost1[tr] *= post_decay1[tr]
+            xpost2[tr] *= post_decay2[tr]
         # static arrivals
         for i in range(n):
             if buf_e[slot, i] != 0.0:
@@ -245,8 +240,8 @@ def run_steps(
                 if plastic_on:
                     theta[i] += p[C_THETA_PLUS]
                     _potentiate(i, j + 1, dt, post_ptr, post_syn, p_proj, p_w, p_xpre, p_last, p_trace,
-                                rules, xpost2, last_post, stats)  # fmt: skip
-                _post_traces(i, j + 1, dt, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2, last_post)
+                                rules, pre_table, xpost2, stats)  # fmt: skip
+                _post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2)
                 emit(i, j + 1, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_post, s_w, s_delay, s_inh,
                      buf_e, buf_i, row_seg_ptr, seg_delay, ev, ev_n, stats)  # fmt: skip
         # 4. state recording
@@ -269,13 +264,23 @@ def run_steps(
     return j1
 
 
+@njit(cache=True, inline="always")
+def _table_decay(x, steps, table, r, dt, tau):  # fmt: skip
+    """``x * exp(-steps * dt / tau)`` with the factor from rule ``r``'s table when it holds it."""
+    if x == 0.0:
+        return 0.0
+    if steps < table.shape[1]:
+        return x * table[r, steps]
+    return x * np.exp(-steps * dt / tau)
+
+
 @njit(cache=True)
-def _potentiate(i, t, dt, post_ptr, post_syn, p_proj, p_w, p_xpre, p_last, p_trace, rules, xpost2, last_post, stats):  # fmt: skip
+def _potentiate(i, t, dt, post_ptr, post_syn, p_proj, p_w, p_xpre, p_last, p_trace, rules, pre_table, xpost2, stats):  # fmt: skip
     """Potentiate the plastic synapses onto neuron ``i``, which spikes at step ``t``."""
     for q in range(post_ptr[i], post_ptr[i + 1]):
         k = post_syn[q]
         r = p_proj[k]
-        x_pre = _decay(p_xpre[k], t - p_last[k], dt, rules[r, R_TAU_PRE])
+        x_pre = _table_decay(p_xpre[k], t - p_last[k], pre_table, r, dt, rules[r, R_TAU_PRE])
         rk = rules[r, R_KIND]
         w = p_w[k]
         w_max = rules[r, R_W_MAX]
@@ -290,8 +295,7 @@ def _potentiate(i, t, dt, post_ptr, post_syn, p_proj, p_w, p_xpre, p_last, p_tra
         else:
             factor = (x_pre - rules[r, R_X_TAR]) * (w_max - w) ** rules[r, R_MU]
             if rules[r, R_TAU_POST2] > 0.0:
-                tr = p_trace[k]
-                factor *= _decay(xpost2[tr], t - last_post[tr], dt, rules[r, R_TAU_POST2])
+                factor *= xpost2[p_trace[k]]
             if factor == 0.0:
                 continue
             w += rules[r, R_POT] * factor
@@ -300,14 +304,12 @@ def _potentiate(i, t, dt, post_ptr, post_syn, p_proj, p_w, p_xpre, p_last, p_tra
 
 
 @njit(cache=True)
-def _post_traces(i, t, dt, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2, last_post):  # fmt: skip
-    """Update the postsynaptic traces of neuron ``i`` for its spike at step ``t``."""
+def _post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2):  # fmt: skip
+    """Update the postsynaptic traces of neuron ``i`` for its spike (traces are at its time already)."""
     for q in range(post_tr_ptr[i], post_tr_ptr[i + 1]):
         tr = post_tr_idx[q]
-        r = trace_proj[tr]
-        if rules[r, R_KIND] == RULE_DIEHL_COOK:
+        if rules[trace_proj[tr], R_KIND] == RULE_DIEHL_COOK:
             xpost1[tr] = 1.0
             xpost2[tr] = 1.0
         else:
-            xpost1[tr] = _decay(xpost1[tr], t - last_post[tr], dt, rules[r, R_TAU_POST]) + 1.0
-        last_post[tr] = t
+            xpost1[tr] += 1.0

@@ -61,6 +61,9 @@ KIND_CURR, KIND_COND, KIND_POISSON, KIND_ARRAY = 0, 1, 2, 3
 RULE_ADDITIVE, RULE_MULTIPLICATIVE, RULE_DIEHL_COOK = 0, 1, 2
 (R_KIND, R_POT, R_DEP, R_W_MIN, R_W_MAX, R_TAU_PRE, R_TAU_POST, R_MU, R_X_TAR, R_TAU_POST2, N_RULE_COLS) = range(11)
 
+# Number of whole-step delays for which the presynaptic trace decay is tabulated.
+PRE_TABLE = 4096
+
 # Recordable variable codes.
 VAR_CODES = {"v": 0, "isyn_exc": 1, "gsyn_exc": 1, "isyn_inh": 2, "gsyn_inh": 2, "theta": 3, "i_ca2": 4}
 
@@ -172,6 +175,9 @@ class Layout:
     post_tr_idx: np.ndarray
     trace_proj: np.ndarray
     rules: np.ndarray
+    pre_table: np.ndarray
+    post_decay1: np.ndarray
+    post_decay2: np.ndarray
     n_traces: int
     ring: int
     # per projection: where its canonical connections live
@@ -264,6 +270,13 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
     tr_order = np.argsort(tr_neuron, kind="stable")
     post_tr_ptr = np.concatenate([[0], np.cumsum(np.bincount(tr_neuron, minlength=n))]).astype(np.int64)
     all_d = np.concatenate([cat(st["d"], np.int64), p_d, [1]])
+    rule_table = np.ascontiguousarray(np.array(rules).reshape(-1, N_RULE_COLS))
+    tr_rule = cat(trace_proj, np.int64)
+    # exp(-k dt / tau_pre) for k < PRE_TABLE steps, per rule; per-step decay factors of the post traces
+    pre_table = np.exp(-np.arange(PRE_TABLE)[None, :] * dt / rule_table[:, R_TAU_PRE][:, None]) if rules else np.ones((0, 1))
+    post_decay1 = np.exp(-dt / rule_table[tr_rule, R_TAU_POST]) if rules else np.zeros(0)
+    tau2 = rule_table[tr_rule, R_TAU_POST2] if rules else np.zeros(0)
+    post_decay2 = np.where(tau2 > 0, np.exp(-dt / np.where(tau2 > 0, tau2, 1.0)), 0.0)
     return Layout(
         n=n,
         offsets=offsets,
@@ -286,8 +299,11 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
         post_syn=post_order.astype(np.int64),
         post_tr_ptr=post_tr_ptr,
         post_tr_idx=tr_order.astype(np.int64),
-        trace_proj=cat(trace_proj, np.int64),
-        rules=np.ascontiguousarray(np.array(rules).reshape(-1, N_RULE_COLS)),
+        trace_proj=tr_rule,
+        rules=rule_table,
+        pre_table=np.ascontiguousarray(pre_table),
+        post_decay1=post_decay1,
+        post_decay2=post_decay2,
         n_traces=n_traces,
         ring=int(all_d.max()) + 2,
         proj_static=proj_static,
