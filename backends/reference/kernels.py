@@ -50,7 +50,6 @@ from .translation import (
     R_KIND,
     R_MU,
     R_POT,
-    R_TAU_POST,
     R_TAU_POST2,
     R_TAU_PRE,
     R_W_MAX,

@@ -182,8 +182,8 @@ class ReferenceSimulation(Simulation):
                 lay.row_seg_ptr, lay.seg_start, lay.seg_delay, lay.p_post, lay.p_w, lay.p_proj, lay.p_inh,
                 lay.p_trace, self._p_xpre, self._p_last, lay.post_ptr, lay.post_syn, lay.post_tr_ptr,
                 lay.post_tr_idx, lay.trace_proj, lay.rules, lay.pre_table, lay.post_decay1, lay.post_decay2,
-                self._xpost1, self._xpost2, self._ev, self._ev_n, self._pois_idx, self._pois_logq, self._pois_next, self._pois_start,
-                self._pois_end, self._arr_step, self._arr_neuron, self._arr_ptr, self._rng,
+                self._xpost1, self._xpost2, self._ev, self._ev_n, self._pois_idx, self._pois_logq, self._pois_next,
+                self._pois_start, self._pois_end, self._arr_step, self._arr_neuron, self._arr_ptr, self._rng,
                 self._rec_mask, self._rec_t, self._rec_i, self._rec_n, self._headroom,
                 self._var_idx, self._var_code, var_out[j - j0 :], self._stats,
             )  # fmt: skip
