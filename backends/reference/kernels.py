@@ -168,10 +168,6 @@ def run_steps(
             for k in range(seg_start[g], seg_start[g + 1]):
                 r = p_proj[k]
                 post = p_post[k]
-                if p_inh[k]:
-                    ii[post] += p_w[k]
-                else:
-                    ie[post] += p_w[k]
                 x_post = xpost1[p_trace[k]]
                 rk = rules[r, R_KIND]
                 if plastic_on and x_post != 0.0:
@@ -184,6 +180,10 @@ def run_steps(
                         w -= rules[r, R_DEP] * x_post
                     p_w[k] = min(max(w, rules[r, R_W_MIN]), rules[r, R_W_MAX])
                     stats[ST_PLASTIC_UPDATES] += 1
+                if p_inh[k]:  # the arriving spike carries the weight after its own depression
+                    ii[post] += p_w[k]
+                else:
+                    ie[post] += p_w[k]
                 if rk == RULE_DIEHL_COOK:
                     p_xpre[k] = 1.0
                 else:

@@ -1,0 +1,89 @@
+"""The PyNN backends: PyNN standard models on NEST (``pynn``) and on Brian2 (``pynn:brian2``).
+
+The IR compiles to PyNN's standard cell types (``IF_curr_exp``, ``IF_cond_exp``,
+``SpikeSourceArray``), ``FromListConnector`` projections holding the canonical
+connections, and ``StaticSynapse`` / ``STDPMechanism(SpikePairRule, Additive- or
+MultiplicativeWeightDependence)``. What PyNN has no standard model for
+(``IF_cond_exp_adaptive``, ``IF_curr_exp_ca2_adaptive``, ``DiehlCookSTDP``) is refused
+by name at compile time. Importing this package imports neither PyNN nor a simulator.
+
+Options of :func:`neurovpr.compile` for ``pynn:brian2``: ``codegen_target="numpy"``
+(default) or ``"cython"`` (compiled into neurovpr's cache folder).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from neurovpr.backend import Backend, Capabilities
+from neurovpr.errors import ValidationError
+from neurovpr.network import Network
+
+from .capabilities import CAPABILITIES_BRIAN2, CAPABILITIES_NEST, Simulator, feature_problems, type_reason
+
+__all__ = ["PyNNBackend", "BACKEND", "BACKEND_BRIAN2"]
+
+
+class PyNNBackend(Backend):
+    """Declaration of a PyNN backend on one simulator."""
+
+    version_of = "PyNN"
+    extra = "pynn"
+
+    def __init__(
+        self, *, name: str, simulator: Simulator, description: str, requires: tuple[str, ...], capabilities: Capabilities
+    ) -> None:
+        self.name = name
+        self.simulator: Simulator = simulator
+        self.description = description
+        self.requires = requires
+        self.capabilities = capabilities
+
+    def unavailable_reason(self) -> str | None:
+        """``None`` when PyNN and the simulator import (NEST's banner silenced)."""
+        from .build import quiet
+
+        with quiet():
+            return super().unavailable_reason()
+
+    def unsupported_features(self, network: Network) -> list[str]:
+        """Every feature of ``network`` this backend cannot compile, with PyNN's reason."""
+        problems = []
+        for problem in super().unsupported_features(network):
+            kind = problem.split(" (", 1)[0].rsplit(" ", 1)[-1]
+            reason = type_reason(kind)
+            problems.append(f"{problem}: {reason}" if reason else problem)
+        if not problems:
+            problems.extend(feature_problems(network, self.simulator))
+        return problems
+
+    def _compile(self, network: Network, *, dt: float, seed: int, hardware: Any, **options: Any) -> Any:
+        from .simulation import PyNNSimulation
+
+        target = options.pop("codegen_target", "numpy")
+        if options:
+            raise ValidationError(
+                f"Backend {self.name!r}: unknown option {next(iter(options))!r} (known: codegen_target)."
+            )
+        if target not in ("numpy", "cython"):
+            raise ValidationError(f"Backend {self.name!r}: codegen_target must be 'numpy' or 'cython', got {target!r}.")
+        return PyNNSimulation(
+            network, backend=self.name, simulator=self.simulator, dt=dt, seed=seed, codegen_target=target
+        )
+
+
+BACKEND = PyNNBackend(
+    name="pynn",
+    simulator="nest",
+    description="PyNN 0.13 standard models on NEST 3 (exact integration on the time grid)",
+    requires=("pyNN", "nest"),
+    capabilities=CAPABILITIES_NEST,
+)
+
+BACKEND_BRIAN2 = PyNNBackend(
+    name="pynn:brian2",
+    simulator="brian2",
+    description="PyNN 0.13 standard models on Brian2 (numpy code generation by default)",
+    requires=("pyNN", "brian2"),
+    capabilities=CAPABILITIES_BRIAN2,
+)

@@ -1,0 +1,63 @@
+"""The spinnaker backend: sPyNNaker's own mapping on a virtual SpiNN-5 board.
+
+The network is translated to sPyNNaker's PyNN models (``IF_curr_exp``, ``IF_cond_exp``,
+``IF_curr_exp_ca2_adaptive`` as ``extra_models.IFCurrExpCa2Adaptive``, Poisson and
+array sources, ``StaticSynapse`` and ``STDPMechanism``) with the canonical connections
+and mapped by sPyNNaker's partitioner, placer and router onto a virtual board. It
+reports what sPyNNaker says the network uses (``Simulation.mapping()``, or
+:func:`neurovpr.backends.spinnaker.mapping.map_network` directly) and refuses to run:
+spikes need a board. Importing this package does not import sPyNNaker.
+
+Option of :func:`neurovpr.compile`: ``n_boards`` (default 1), the SpiNN-5 boards
+sPyNNaker may use.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from neurovpr.backend import Backend
+from neurovpr.errors import ValidationError
+from neurovpr.network import Network
+
+from .capabilities import CAPABILITIES, REASONS
+
+__all__ = ["SpiNNakerBackend", "BACKEND"]
+
+
+class SpiNNakerBackend(Backend):
+    """Declaration of the ``spinnaker`` backend."""
+
+    name = "spinnaker"
+    description = "sPyNNaker's partitioning, placement and routing on a virtual SpiNN-5 board (no spikes)"
+    requires = ("spynnaker.pyNN",)
+    version_of = "sPyNNaker"
+    extra = "spinnaker"
+    capabilities = CAPABILITIES
+
+    def unavailable_reason(self) -> str | None:
+        """``None`` when sPyNNaker imports (its import output silenced)."""
+        from .mapping import _silenced
+
+        with _silenced():
+            return super().unavailable_reason()
+
+    def unsupported_features(self, network: Network) -> list[str]:
+        """Every feature of ``network`` sPyNNaker cannot map, with the reason."""
+        problems = []
+        for problem in super().unsupported_features(network):
+            kind = problem.split(" (", 1)[0].rsplit(" ", 1)[-1]
+            reason = REASONS.get(kind)
+            problems.append(f"{problem}: {reason}" if reason else problem)
+        return problems
+
+    def _compile(self, network: Network, *, dt: float, seed: int, hardware: Any, **options: Any) -> Any:
+        from .simulation import SpiNNakerSimulation
+
+        n_boards = options.pop("n_boards", 1)
+        if options:
+            raise ValidationError(f"Backend 'spinnaker': unknown option {next(iter(options))!r} (known: n_boards).")
+        return SpiNNakerSimulation(network, dt=dt, seed=seed, n_boards=n_boards)
+
+
+BACKEND = SpiNNakerBackend()
