@@ -236,8 +236,8 @@ class Simulation(ABC):
                 conn = conn.replace(seed=resolved_seed(proj, self._seed))
             from neurovpr.connectors import ConvolutionConnector, FromListConnector
 
-            if isinstance(conn, ConvolutionConnector):
-                continue  # kernels are shared and never learned
+            if isinstance(conn, ConvolutionConnector) or weight.size == 0:
+                continue  # kernels are shared and never learned; an empty projection has nothing to store
             if isinstance(conn, FromListConnector) and conn.conn_list.shape[1] >= 3:
                 cl = np.array(conn.conn_list)
                 cl[:, 2] = weight

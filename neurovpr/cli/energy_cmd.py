@@ -1,0 +1,49 @@
+"""``neurovpr energy``: joules per inference of a run on a hardware target."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from neurovpr.errors import ValidationError
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Register the subcommand."""
+    p = sub.add_parser(
+        "energy",
+        help="estimate joules per inference of a run on a hardware target",
+        description=(
+            "Turn the activity counted in a run (RUN_DIR/activity.json) into joules per inference with the "
+            "hwspec's energy per operation; uses RUN_DIR/network.h5, when present, for the chips and cores used."
+        ),
+    )
+    p.add_argument("--run", required=True, metavar="RUN_DIR", help="a run directory holding activity.json")
+    p.add_argument("--hw", required=True, metavar="NAME", help="hwspec name (spinn5, kapoho-bay, loihi2) or .toml file")
+    p.add_argument("--seed", type=int, default=0, help="seed of random connectors without their own (default 0)")
+    p.add_argument("--json", action="store_true", help="print one JSON object")
+    p.set_defaults(handler=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Estimate and print the energy."""
+    from neurovpr.hardware.energy import ACTIVITY_FILE, estimate_energy, read_activity
+    from neurovpr.hardware.hwspec import load_hwspec
+
+    from .check_cmd import NETWORK_FILE, load_network_arg
+
+    spec = load_hwspec(args.hw)
+    base = Path(args.run)
+    if not base.is_dir():
+        raise ValidationError(f"Run directory {args.run!r} does not exist.")
+    if not (base / ACTIVITY_FILE).is_file():
+        raise ValidationError(f"Run directory {args.run!r} has no {ACTIVITY_FILE}.")
+    activity = read_activity(base / ACTIVITY_FILE)
+    network = load_network_arg(args.run, None) if (base / NETWORK_FILE).is_file() else None
+    report = estimate_energy(activity, spec, network=network, seed=args.seed)
+    if args.json:
+        print(json.dumps(report.as_dict(), indent=2))
+    else:
+        print(report.table())
+    return 0

@@ -1,0 +1,356 @@
+"""sPyNNaker's rules for putting a network onto a SpiNNaker board.
+
+The network is translated as an equivalent PyNN script for ``pyNN.spiNNaker`` would be:
+``AllToAllConnector`` and ``OneToOneConnector`` with one weight and one delay for all
+synapses are sPyNNaker's own connectors; every other projection (random, convolution or
+explicit connectors, per-synapse weights or delays) is the explicit list of its
+connections (``FromListConnector``), so that the synapses are exactly those of
+:func:`neurovpr.expand`.
+
+With sPyNNaker's default 1 ms step every population is one application vertex on
+combined neuron-and-synapse cores (``PopulationVertex.use_combined_core``), split into
+fixed slices of at most the per-core maximum (``SplitterPopulationVertexFixed``); Poisson
+sources are sliced in the same way with their own maximum, a ``SpikeSourceArray`` is one
+core. Delays beyond a core's ring buffer add one delay-extension core per slice of the
+presynaptic population (``extra_algorithms/delay_support_adder.py``). Each core's
+synaptic matrix is sized as ``PopulationVertex.get_synapses_size`` does (the longest row
+of each incoming projection for a full core, one block per presynaptic slice, blocks
+aligned by the master population table). Cores are then placed on the board's chips in
+the order of PACMAN's ``ApplicationPlacer`` (chips filled core by core, moving to
+neighbouring chips of the current board, new start chips in x-then-y order).
+
+All counts and sizes come from the hwspec (``[core]``, ``[spinnaker]``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from tqdm import tqdm
+
+from neurovpr.cells import SpikeSourceArray, SpikeSourcePoisson
+from neurovpr.connectors import AllToAllConnector, OneToOneConnector
+from neurovpr.network import Network, Projection
+
+from .hwspec import HwSpec, SpinnakerRules
+from .partition import CoreSlice, Partition, Violation, expand_on_chip
+
+__all__ = ["partition_spinnaker", "n_bits"]
+
+#: Link directions of a SpiNNaker chip, in link-id order (spinn_machine/machine.py LINK_ADD_TABLE).
+_LINKS = ((1, 0), (1, 1), (0, 1), (-1, 0), (-1, -1), (0, -1))
+
+
+def n_bits(n_values: int) -> int:
+    """Bits needed for ``n_values`` values (``pacman.utilities.utility_calls.get_n_bits``)."""
+    if n_values <= 1:
+        return max(n_values, 0)
+    return math.ceil(math.log2(n_values))
+
+
+def _align(address: int, rules: SpinnakerRules) -> int:
+    scale = rules.block_alignment_bytes
+    return -(-address // scale) * scale
+
+
+@dataclass(slots=True)
+class _Rows:
+    """Longest undelayed and delayed rows (in synapses) of one projection onto one post core."""
+
+    undelayed: int
+    delayed: int
+
+
+def _max_atoms(pop, spec: HwSpec) -> int:
+    rules = spec.spinnaker
+    assert rules is not None
+    if isinstance(pop.cell_type, SpikeSourcePoisson):
+        return min(rules.poisson_sources_per_core, pop.size)
+    if isinstance(pop.cell_type, SpikeSourceArray):
+        return pop.size if rules.array_sources_per_core == 0 else min(rules.array_sources_per_core, pop.size)
+    return min(spec.core.max_neurons, pop.size)
+
+
+def _native(proj: Projection) -> bool:
+    """Whether sPyNNaker's own connector is used: one weight and one delay for every synapse.
+
+    sPyNNaker's AllToAll/OneToOne connectors refuse per-synapse weight arrays, and random
+    weights would be drawn by its own generator, so anything else is an explicit list.
+    """
+    delay = proj.synapse.delay
+    return (
+        isinstance(proj.connector, (AllToAllConnector, OneToOneConnector))
+        and isinstance(proj.synapse.weight, float)
+        and (delay is None or isinstance(delay, float))
+    )
+
+
+def _longest_delay(network: Network, proj: Projection, spec: HwSpec, seed: int) -> float:
+    """The longest delay of ``proj`` in ms (``None`` delays are one step)."""
+    from neurovpr.connectors import FromListConnector
+
+    step = spec.timing.time_step_ms
+    delay = proj.synapse.delay
+    listed = isinstance(proj.connector, FromListConnector) and proj.connector.conn_list.shape[1] == 4
+    if not listed and (delay is None or isinstance(delay, float)):
+        return step if delay is None else float(delay)
+    conns = expand_on_chip(network, proj, spec, seed)
+    return float(conns.delay.max()) if len(conns) else step
+
+
+def _row_lengths(network: Network, proj: Projection, spec: HwSpec, seed: int, n_post_atoms: int,
+                 max_supported_ms: float) -> _Rows:
+    """Longest rows of ``proj`` onto a post core of ``n_post_atoms`` (``get_max_row_info``).
+
+    Synapses with delays up to ``max_supported_ms`` go to the undelayed matrix, the others
+    to the delay-extension matrix. Explicit lists are counted per (source, post core) as
+    ``FromListConnector.get_n_connections_from_pre_vertex_maximum`` does.
+    """
+    step = spec.timing.time_step_ms
+    if _native(proj):
+        delay = proj.synapse.delay if proj.synapse.delay is not None else step
+        n = n_post_atoms if isinstance(proj.connector, AllToAllConnector) else 1
+        return _Rows(undelayed=n, delayed=0) if delay <= max_supported_ms else _Rows(undelayed=0, delayed=n)
+    conns = expand_on_chip(network, proj, spec, seed)
+    rows = []
+    for mask in (conns.delay <= max_supported_ms, conns.delay > max_supported_ms):
+        rows.append(_list_row_max(conns.pre[mask], conns.post[mask] // n_post_atoms) if mask.any() else 0)
+    return _Rows(undelayed=rows[0], delayed=rows[1])
+
+
+def _group(values: np.ndarray, order_by: np.ndarray) -> list[np.ndarray]:
+    """Index chunks as ``FromListConnector.__numpy_group`` makes them.
+
+    sPyNNaker 7.4.1 computes the split points on the list sorted by the column but
+    splits the list in its original order, so an unsorted list is cut into chunks of
+    the group sizes rather than into groups. Reproduced as is: it decides the row length
+    sPyNNaker reserves.
+    """
+    split_points = np.unique(np.sort(order_by), return_index=True)[1][1:]
+    return np.array_split(values, split_points)
+
+
+def _list_row_max(pre: np.ndarray, core: np.ndarray) -> int:
+    """Longest row of an explicit list per (source, post core), as sPyNNaker estimates it
+    (``FromListConnector.get_n_connections_from_pre_vertex_maximum``)."""
+    idx = np.arange(pre.size)
+    best = 0
+    for chunk in _group(idx, pre):
+        for sub in _group(chunk, core[chunk]):
+            best = max(best, sub.size)
+    return best
+
+
+def _row_words(n_synapses: int, plastic: bool, rules: SpinnakerRules) -> int:
+    """Words of a row of ``n_synapses`` (static: one word each; STDP: half-words and a header)."""
+    if n_synapses == 0:
+        return 0
+    if not plastic:
+        return n_synapses
+    fixed = -(-n_synapses * rules.fixed_half_words_per_synapse // 2)
+    plastic_bytes = rules.plastic_header_bytes + 2 * rules.plastic_half_words_per_synapse * n_synapses
+    return fixed + -(-plastic_bytes // rules.bytes_per_word)
+
+
+class _Placer:
+    """PACMAN's ``ApplicationPlacer`` with cores as the only resource and one core per group.
+
+    An application vertex is placed from a start chip onto neighbouring chips of the same
+    board; if the neighbourhood runs out, the attempt is dropped and repeated from the next
+    start chip (``_prepare_placements``). Start chips tried for one vertex are offered
+    first to the next vertex; new start chips come in x-then-y order.
+    """
+
+    def __init__(self, spec: HwSpec) -> None:
+        rules = spec.spinnaker
+        assert rules is not None
+        reduced = {tuple(c) for c in rules.reduced_core_chips}
+        coords = sorted((x, y) for y, lo, hi in rules.chip_rows for x in range(lo, hi + 1))
+        self.free: dict[tuple[int, int], list[int]] = {}
+        for xy in coords:
+            n_cores = spec.chip.cores_per_chip - (1 if xy in reduced else 0)
+            taken = rules.system_cores_per_chip + (rules.ethernet_chip_extra_cores if xy == coords[0] else 0)
+            self.free[xy] = list(range(taken, n_cores))
+        self.order = iter(coords)
+        self.full: set[tuple[int, int]] = set()
+        self.starts_tried: list[tuple[int, int]] = []
+        self.restored: list[tuple[int, int]] = []
+        self.neighbours: dict[tuple[int, int], None] = {}
+
+    def _space(self, xy: tuple[int, int], prepared: set) -> list[int] | None:
+        if not self.free[xy]:
+            self.full.add(xy)
+            return None
+        prepared.add(xy)
+        for dx, dy in _LINKS:
+            n = (xy[0] + dx, xy[1] + dy)
+            if n in self.free and n not in self.full and n not in prepared:
+                self.neighbours[n] = None
+        return list(self.free[xy])
+
+    def _start(self, prepared: set) -> tuple[tuple[int, int], list[int]] | None:
+        self.neighbours.clear()
+        while True:
+            start = None
+            while self.restored:
+                chip = self.restored.pop(0)
+                if chip not in self.full:
+                    start = chip
+                    break
+            if start is None:
+                start = next((c for c in self.order if c not in self.full), None)
+                if start is None:
+                    return None
+            self.starts_tried.append(start)
+            cores = self._space(start, prepared)
+            if cores is not None:
+                return start, cores
+
+    def place_vertex(self, n_cores: int) -> list[tuple[int, int, int]] | None:
+        """Cores ``(x, y, p)`` for one vertex of ``n_cores`` cores, or None when no chip is left."""
+        self.restored.extend(self.starts_tried)
+        self.starts_tried = []
+        while True:
+            prepared: set = set()
+            current: tuple[tuple[int, int], list[int]] | None = None
+            out: list[tuple[int, int, int]] = []
+            for _ in range(n_cores):
+                if current is None:
+                    current = self._start(prepared)
+                    if current is None:
+                        return None
+                elif not current[1]:
+                    current = None
+                    while self.neighbours:
+                        cand = next(iter(self.neighbours))
+                        del self.neighbours[cand]
+                        cores = self._space(cand, prepared)
+                        if cores is not None:
+                            current = (cand, cores)
+                            break
+                    if current is None:
+                        break
+                out.append((current[0][0], current[0][1], current[1].pop(0)))
+            else:
+                for x, y, p in out:
+                    self.free[(x, y)].remove(p)
+                return out
+
+
+def partition_spinnaker(network: Network, spec: HwSpec, *, seed: int = 0) -> Partition:
+    """Split and place ``network`` on a SpiNNaker board with sPyNNaker's rules (module docstring)."""
+    rules = spec.spinnaker
+    assert rules is not None, "the spinnaker partitioner needs [spinnaker]"
+    step = spec.timing.time_step_ms
+    pops = network.populations
+    max_atoms = {name: _max_atoms(p, spec) for name, p in pops.items()}
+    violations: list[Violation] = []
+
+    # Pass 1: delay slots each core offers, the delay each projection needs, delay stages.
+    incoming: dict[str, list[Projection]] = {n: [] for n in pops}
+    for proj in network.projections.values():
+        incoming[proj.post].append(proj)
+    type_bits = n_bits(rules.synapse_types)
+    plan: dict[str, tuple[float, list[tuple[Projection, float]]]] = {}
+    delay_pre: dict[str, int] = {}
+    for name, pop in pops.items():
+        if pop.is_source:
+            continue
+        slots = 2 ** (rules.ring_buffer_bits - (n_bits(max_atoms[name]) + type_bits))
+        pre_order = list(dict.fromkeys(p.pre for p in incoming[name]))
+        projs = sorted(incoming[name], key=lambda p: pre_order.index(p.pre))
+        delays = [_longest_delay(network, p, spec, seed) for p in projs]
+        support = min(2 ** n_bits(math.ceil(max(delays, default=step) / step - 1e-9)), slots)
+        max_ms = support * step
+        plan[name] = (max_ms, list(zip(projs, delays, strict=True)))
+        for proj, delay in plan[name][1]:
+            if delay <= max_ms:
+                continue
+            delay_pre[proj.pre] = max(delay_pre.get(proj.pre, 0), math.ceil(delay / max_ms) - 1)
+            limit_ms = (rules.delay_extension_stages + 1) * max_ms
+            if delay > limit_ms + 1e-9:
+                violations.append(
+                    Violation(limit="delay", where=proj.name, value=delay / step, maximum=limit_ms / step,
+                              message=(f"Projection {proj.name!r}: delay of {delay / step:g} steps exceeds the "
+                                       f"{limit_ms / step:g} steps a delay extension supports onto {name!r}."))
+                )
+
+    # Pass 2: synaptic matrix bytes of a core of each population (get_synapses_size).
+    matrix: dict[str, int] = {}
+    for name, (max_ms, projs) in tqdm(plan.items(), desc=f"synaptic matrices for {spec.name}", unit="population",
+                                      leave=False, disable=len(plan) < 20):
+        address = rules.matrix_base_bytes
+        for proj, _ in projs:
+            rows = _row_lengths(network, proj, spec, seed, max_atoms[name], max_ms)
+            n_sub = max_atoms[proj.pre]
+            n_edges = -(-pops[proj.pre].size // n_sub)
+            for n_syn, n_stage in ((rows.undelayed, 1), (rows.delayed, delay_pre.get(proj.pre, 0))):
+                words = _row_words(n_syn, proj.plastic, rules)
+                if words > rules.max_row_words:
+                    violations.append(
+                        Violation(limit="synaptic row length", where=proj.name, value=words,
+                                  maximum=rules.max_row_words,
+                                  message=(f"Projection {proj.name!r}: a synaptic row of {words} words exceeds the "
+                                           f"{rules.max_row_words}-word maximum on {spec.name}."))
+                    )
+                if words == 0 or n_stage == 0:
+                    continue
+                size = n_sub * (words + rules.row_header_words) * rules.bytes_per_word * n_stage
+                for _ in range(n_edges):
+                    address = _align(address, rules) + size
+        matrix[name] = address
+
+    # Application vertices in sPyNNaker's order: populations, then delay extensions.
+    vertices: list[tuple[str, str, int]] = [(n, "sources" if p.is_source else "neurons", max_atoms[n])
+                                            for n, p in pops.items()]
+    vertices += [(pre, "delays", max_atoms[pre]) for pre in dict.fromkeys(
+        p.pre for p in network.projections.values() if p.pre in delay_pre)]
+    placer = _Placer(spec)
+    cores: list[CoreSlice] = []
+    chips_seen: dict[tuple[int, int], int] = {}
+    unplaced = 0
+    for name, kind, per_core in vertices:
+        size = pops[name].size
+        slices = [(lo, min(lo + per_core, size)) for lo in range(0, size, per_core)]
+        where = placer.place_vertex(len(slices)) if not unplaced else None
+        if where is None:
+            unplaced += len(slices)
+            where = [None] * len(slices)
+        for (lo, hi), loc in zip(slices, where, strict=True):
+            usage = {"neurons": hi - lo}
+            if kind == "neurons":
+                usage["synaptic_matrix_bytes"] = matrix[name]
+            chip = -1
+            if loc is not None:
+                chip = chips_seen.setdefault(loc[:2], len(chips_seen))
+            limit = {"neurons": spec.core.max_neurons} if kind == "neurons" else {"neurons": per_core}
+            label = f"{name}:delays" if kind == "delays" else name
+            cores.append(CoreSlice(population=label, lo=lo, hi=hi, kind=kind, chip=chip, location=loc,
+                                   usage=usage, limits=limit))
+    if unplaced:
+        capacity = sum(len(v) for v in _Placer(spec).free.values())
+        first = next(c.population for c in cores if c.location is None)
+        violations.append(
+            Violation(limit="cores", where=network.name, value=len(cores), maximum=capacity,
+                      message=(f"Network {network.name!r} needs {len(cores)} cores but {spec.name} offers "
+                               f"{capacity} application cores; {first!r} and later populations could not be placed."))
+        )
+    sdram: dict[tuple[int, int], int] = {}
+    for c in cores:
+        if c.location is not None:
+            sdram[c.location[:2]] = sdram.get(c.location[:2], 0) + c.usage.get("synaptic_matrix_bytes", 0)
+    for xy, used in sdram.items():
+        if used > rules.sdram_per_chip_bytes:
+            violations.append(
+                Violation(limit="SDRAM per chip", where=f"chip {xy}", value=used, maximum=rules.sdram_per_chip_bytes,
+                          message=(f"Chip {xy}: synaptic matrices of {used} bytes exceed its "
+                                   f"{rules.sdram_per_chip_bytes} bytes of SDRAM."))
+            )
+    notes = (
+        "AllToAll/OneToOne with one weight and delay use sPyNNaker's connectors; other projections are lists.",
+        "Placement counts cores only; SDRAM is checked per chip for synaptic matrices.",
+    )
+    return Partition(hardware=spec.name, cores=tuple(cores), chips=len(chips_seen) + (1 if unplaced else 0),
+                     violations=tuple(violations), notes=notes)
