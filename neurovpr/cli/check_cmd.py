@@ -24,7 +24,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     )
     src = p.add_mutually_exclusive_group(required=True)
     src.add_argument("--run", metavar="RUN_DIR", help="a run directory holding network.h5")
-    src.add_argument("--file", metavar="NETWORK", help="a saved network (.h5)")
+    src.add_argument("--file", metavar="NETWORK", help="a saved network (.h5) or a NIR graph (.nir)")
     p.add_argument("--hw", required=True, metavar="NAME", help="hwspec name (spinn5, kapoho-bay, loihi2) or .toml file")
     p.add_argument("--seed", type=int, default=0, help="seed of random connectors without their own (default 0)")
     p.add_argument("--plot", metavar="PNG", help="write the per-core utilisation plot here "
@@ -47,13 +47,12 @@ def load_network_arg(run_dir: str | None, file: str | None) -> Network:
     else:
         assert file is not None
         path = Path(file)
-        if path.suffix.lower() == ".nir":
-            raise ValidationError(
-                f"Reading NIR graphs ({file!r}) is not available yet; import it first with `neurovpr import` "
-                "or pass a saved network (.h5)."
-            )
         if not path.is_file():
             raise ValidationError(f"Network file {file!r} does not exist.")
+        if path.suffix.lower() == ".nir":
+            from neurovpr.interop.nir import load_nir
+
+            return load_nir(path)
     return nv.load(path)
 
 

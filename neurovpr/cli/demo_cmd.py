@@ -1,154 +1,137 @@
 """``neurovpr demo``: the main job on the embedded default.
 
-Trains one Diehl & Cook module (Poisson pixels -> adaptive excitatory layer with
-lateral inhibition, learned by ``DiehlCookSTDP``) on a handful of synthetic
-patterns with the reference backend, assigns each neuron to the pattern it fires
-most for, and reports how well the module tells noisy versions of the patterns
-apart. Writes ``summary.json`` and a PNG of the learned weights to the report folder.
+Renders a small synthetic route (:func:`neurovpr.data.synthetic.synthetic_traverse`:
+a summer reference traverse and a late-autumn query traverse of the same places:
+half-way to winter, dimmer, less contrast, slightly blurred, up to 2 pixels off the
+reference path),
+trains the Modular SNN on it with the reference backend in local worker processes, an
+ensemble of several members, and evaluates a single modular SNN and the ensemble,
+each without and with sequence matching, next to SAD on the same images. The model is
+found through its entry point (``neurovpr.models``: ``modular``), like any plug-in.
+Prints one table and writes ``summary.json`` and the PNG plots to the report folder.
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import sys
+import tempfile
 import time
 from pathlib import Path
+from typing import Any
 
-import numpy as np
-from tqdm import tqdm
-
-import neurovpr as nv
+from neurovpr.errors import ValidationError
 from neurovpr.fileio import atomic_write_text
+from neurovpr.modelapi import get_model, read_run_info
 
-_SIDE = 28
+#: The query traverse's look (see :class:`neurovpr.data.synthetic.AppearanceChange`).
+_QUERY_LOOK_ARGS = {"season": 0.5, "illumination": 0.7, "contrast": 0.8, "blur_sigma": 0.6, "shift_px": 2, "noise_std": 0.03}
+_LIMITS = {"places": (4, 200), "module_size": (2, 100), "members": (1, 10), "epochs": (1, 60), "seq_len": (2, 20)}
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
     """Register the subcommand."""
-    p = sub.add_parser("demo", help="train and evaluate a small module on synthetic patterns")
+    p = sub.add_parser("demo", help="train and evaluate the Modular SNN on a small synthetic route")
     p.add_argument("--out", type=Path, default=Path("reports/demo"), help="report folder (default: reports/demo)")
     p.add_argument("--backend", default="reference", help="backend to run on (default: reference)")
-    p.add_argument("--patterns", type=int, default=5, help="number of patterns (2..20, default 5)")
-    p.add_argument("--epochs", type=int, default=10, help="training epochs (1..50, default 10)")
+    p.add_argument("--places", type=int, default=30, help="places on the synthetic route (default 30)")
+    p.add_argument("--module-size", type=int, default=15, help="places per module (default 15)")
+    p.add_argument("--members", type=int, default=3, help="ensemble members (default 3)")
+    p.add_argument("--epochs", type=int, default=8, help="training epochs per module (default 8)")
+    p.add_argument("--seq-len", type=int, default=4, help="sequence length of sequence matching (default 4)")
+    p.add_argument("--workers", type=int, default=None, help="worker processes (default: the CPU cores)")
     p.add_argument("--seed", type=int, default=1, help="random seed (default 1)")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
     p.set_defaults(handler=run)
 
 
-def _patterns(n: int, rng: np.random.Generator) -> np.ndarray:
-    """``n`` random blob images of ``_SIDE x _SIDE`` pixels in 0..255."""
-    yy, xx = np.mgrid[0:_SIDE, 0:_SIDE]
-    out = np.zeros((n, _SIDE * _SIDE))
-    for k in range(n):
-        img = np.zeros((_SIDE, _SIDE))
-        for _ in range(3):
-            cy, cx = rng.uniform(0, _SIDE, 2)
-            img += np.exp(-((yy - cy) ** 2 + (xx - cx) ** 2) / (2 * 4.0**2))
-        out[k] = 255 * img.ravel() / img.max()
-    return out
-
-
-def build_module(n_input: int, n_neurons: int) -> nv.Network:
-    """A Diehl & Cook module with conductances in units of the leak conductance (cm = tau_m)."""
-    net = nv.Network("demo_module")
-    net.add_population("pixels", n_input, nv.SpikeSourcePoisson())
-    exc = nv.IF_cond_exp_adaptive(
-        cm=100.0, tau_m=100.0, v_rest=-65.0, v_reset=-65.0, v_thresh=-52.0, tau_refrac=5.0,
-        tau_syn_E=1.0, tau_syn_I=2.0, e_rev_E=0.0, e_rev_I=-100.0, theta_plus=0.05, tau_theta=1e7,
-    )  # fmt: skip
-    inh = nv.IF_cond_exp(
-        cm=10.0, tau_m=10.0, v_rest=-60.0, v_reset=-45.0, v_thresh=-40.0, tau_refrac=2.0,
-        tau_syn_E=1.0, tau_syn_I=2.0, e_rev_E=0.0, e_rev_I=-85.0,
-    )  # fmt: skip
-    net.add_population("exc", n_neurons, exc)
-    net.add_population("inh", n_neurons, inh)
-    net.connect(
-        "pixels", "exc", nv.AllToAllConnector(),
-        nv.DiehlCookSTDP(weight=nv.Uniform(low=0.0, high=0.3), eta_pre=1e-4, eta_post=1e-2, w_max=1.0, mu=1.0),
-    )  # fmt: skip
-    net.connect("exc", "inh", nv.OneToOneConnector(), nv.StaticSynapse(weight=10.4))
-    net.connect(
-        "inh", "exc", nv.AllToAllConnector(allow_self_connections=False), nv.StaticSynapse(weight=17.0),
-        receptor_type="inhibitory", name="lateral",
-    )  # fmt: skip
-    return net
+def _check(args: argparse.Namespace) -> None:
+    for name, (low, high) in _LIMITS.items():
+        value = getattr(args, name)
+        if not low <= value <= high:
+            raise ValidationError(f"demo: --{name.replace('_', '-')} must be in {low}..{high}, got {value}.")
+    if args.seq_len > args.places:
+        raise ValidationError(f"demo: --seq-len {args.seq_len} is longer than the route ({args.places} places).")
 
 
 def run(args: argparse.Namespace) -> int:
-    """Train, assign, test and report."""
-    if not 2 <= args.patterns <= 20:
-        raise nv.ValidationError(f"demo: --patterns must be in 2..20, got {args.patterns}.")
-    if not 1 <= args.epochs <= 50:
-        raise nv.ValidationError(f"demo: --epochs must be in 1..50, got {args.epochs}.")
-    rng = np.random.default_rng(args.seed)
-    patterns = _patterns(args.patterns, rng)
-    n_neurons = 10 * args.patterns
-    net = build_module(patterns.shape[1], n_neurons)
+    """Train, evaluate and report."""
+    _check(args)
+    from neurovpr.data.generic import write_generic
+    from neurovpr.data.synthetic import AppearanceChange, synthetic_traverse
+
+    model = get_model("modular")
+    query_look = AppearanceChange(**_QUERY_LOOK_ARGS)
     start = time.perf_counter()
-    sim = nv.compile(net, backend=args.backend, dt=0.5, seed=args.seed)
-
-    def present(img: np.ndarray) -> np.ndarray:
-        sim.run(350.0, inputs={"pixels": img / 4.0})
-        counts = sim.spike_counts("exc")
-        sim.reset()
-        return counts
-
-    order = [k for _ in range(args.epochs) for k in rng.permutation(args.patterns)]
-    for k in tqdm(order, desc="training", unit="image"):
-        w = sim.weights("pixels->exc")  # Diehl & Cook: input weights of each neuron sum to 78
-        sim.set_weights("pixels->exc", np.minimum(w * (78.0 / w.sum(axis=0)), 1.0))
-        present(patterns[k])
-    train_s = time.perf_counter() - start
-    sim.plasticity(False)
-    responses = np.array([present(p) for p in patterns])
-    assignment = responses.argmax(axis=0)
-    labels = np.repeat(np.arange(args.patterns), 4)  # four noisy versions of each pattern
-    noisy = np.clip(patterns[labels] + rng.normal(0, 40.0, (labels.size, patterns.shape[1])), 0, 255)
-    correct = 0
-    for k, img in zip(labels, tqdm(noisy, desc="testing", unit="image"), strict=True):
-        counts = present(img)
-        scores = np.array([counts[assignment == c].sum() for c in range(args.patterns)])
-        correct += int(scores.argmax() == k and scores.max() > 0)
-    accuracy = correct / labels.size
-    summary = {
-        "model": "diehl_cook_module",
-        "backend": args.backend,
-        "patterns": args.patterns,
-        "neurons": n_neurons,
-        "epochs": args.epochs,
-        "accuracy": accuracy,
-        "chance": 1.0 / args.patterns,
-        "train_seconds": round(train_s, 3),
-        "activity": sim.statistics(),
-    }
+    with tempfile.TemporaryDirectory(prefix="neurovpr-demo-") as tmp:
+        data, run_dir = Path(tmp) / "data", Path(tmp) / "run"
+        write_generic(synthetic_traverse(args.places, seed=args.seed, query=query_look), data)
+        train_parser = argparse.ArgumentParser(add_help=False)
+        model.add_train_arguments(train_parser)
+        options = ["--members", str(args.members), "--epochs", str(args.epochs), "--module-size", str(args.module_size)]
+        if args.workers is not None:
+            options += ["--workers", str(args.workers)]
+        targs = train_parser.parse_args(options)
+        targs.__dict__.update(data=data, out=run_dir, backend=args.backend, seed=args.seed, scheduler=None, resume=False)
+        trained = model.train(targs)
+        info = read_run_info(run_dir)
+        eval_parser = argparse.ArgumentParser(add_help=False)
+        model.add_eval_arguments(eval_parser)
+        results = {}
+        for seq_len in (1, args.seq_len):
+            eargs = eval_parser.parse_args(["--report", str(args.out)])
+            eargs.__dict__.update(run=run_dir, data=None, backend=args.backend, seq_len=seq_len, scheduler=None)
+            results[seq_len] = model.evaluate(eargs, info)
+    elapsed = time.perf_counter() - start
+    summary = _summary(args, trained, results, elapsed)
     args.out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(args.out / "summary.json", json.dumps(summary, indent=2))
-    _plot_weights(sim.weights("pixels->exc"), args.out / "weights.png")
     if args.json:
         print(json.dumps(summary))
     else:
-        print(f"Diehl&Cook module, {n_neurons} neurons, {args.patterns} patterns, {args.epochs} epochs, {args.backend}")
-        print(f"  accuracy on noisy patterns: {accuracy:.0%} (chance {1 / args.patterns:.0%})")
-        print(f"  training time: {train_s:.1f} s; report written to {args.out}")
+        _print_table(summary)
     return 0
 
 
-def _plot_weights(weights: np.ndarray, path: Path) -> None:
-    import matplotlib
+def _summary(args: argparse.Namespace, trained: dict[str, Any], results: dict[int, Any], elapsed: float) -> dict[str, Any]:
+    rows: dict[str, dict[str, float]] = {"Modular SNN": {}, f"Ensemble ({args.members})": {}, "SAD": {}}
+    for seq_len, res in results.items():
+        key = f"R@1 L={seq_len}"
+        rows["Modular SNN"][key] = res["modular_snn"]["R@1"]
+        rows[f"Ensemble ({args.members})"][key] = res["metrics"]["R@1"]
+        rows["SAD"][key] = res["baselines"]["SAD"]["R@1"]
+    last = results[args.seq_len]
+    return {
+        "model": "modular",
+        "backend": args.backend,
+        "data": f"synthetic route, {args.places} places, seed {args.seed} (summer reference, late-autumn query)",
+        "plan": trained.get("plan"),
+        "members": args.members,
+        "epochs": args.epochs,
+        "seq_lens": [1, args.seq_len],
+        "R@1": rows,
+        "mean_of_members_R@1": {f"L={k}": v["mean_of_members"]["R@1"] for k, v in results.items()},
+        "train_seconds_per_module": trained.get("train_seconds_per_module"),
+        "total_seconds": round(elapsed, 1),
+        "report": str(args.out),
+        "files": sorted({Path(f).name for res in results.values() for f in res["files"].values()}),
+        "metrics": {"ensemble": last["metrics"], "modular_snn": last["modular_snn"], "SAD": last["baselines"]["SAD"]},
+    }
 
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
 
-    n = weights.shape[1]
-    cols = min(n, 10)
-    rows = int(np.ceil(n / cols))
-    fig, axes = plt.subplots(rows, cols, figsize=(cols, rows))
-    for k, ax in enumerate(np.atleast_1d(axes).ravel()):
-        ax.axis("off")
-        if k < n:
-            ax.imshow(weights[:, k].reshape(_SIDE, _SIDE), cmap="gray")
-    fig.suptitle("learned input weights per excitatory neuron")
-    tmp = path.with_suffix(".tmp.png")
-    fig.savefig(tmp, dpi=80)
-    plt.close(fig)
-    tmp.replace(path)
+def _print_table(summary: dict[str, Any]) -> None:
+    out = sys.stdout
+    print(f"Modular SNN demo on the {summary['backend']} backend: {summary['data']}", file=out)
+    print(f"  {summary['plan']}; {summary['members']} ensemble members; {summary['epochs']} epochs", file=out)
+    cols = [f"R@1 L={n}" for n in summary["seq_lens"]]
+    print(f"  {'method':<16}" + "".join(f"{c:>12}" for c in cols), file=out)
+    for name, values in summary["R@1"].items():
+        print(f"  {name:<16}" + "".join(f"{values[c]:>12.3f}" for c in cols), file=out)
+    mean = summary["mean_of_members_R@1"]
+    print("  (mean of the members: " + ", ".join(f"{k} {v:.3f}" for k, v in mean.items()) + ")", file=out)
+    print(
+        f"  training {summary['train_seconds_per_module']} s per module; total {summary['total_seconds']} s; "
+        f"report written to {summary['report']}",
+        file=out,
+    )

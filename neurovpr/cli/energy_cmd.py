@@ -19,7 +19,13 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
             "hwspec's energy per operation; uses RUN_DIR/network.h5, when present, for the chips and cores used."
         ),
     )
-    p.add_argument("--run", required=True, metavar="RUN_DIR", help="a run directory holding activity.json")
+    src = p.add_mutually_exclusive_group(required=True)
+    src.add_argument("--run", metavar="RUN_DIR", help="a run directory holding activity.json")
+    src.add_argument("--file", metavar="NETWORK", help="a saved network (.h5) or a NIR graph (.nir), run here with "
+                     "Poisson input at --rate for --duration to count its activity")  # fmt: skip
+    p.add_argument("--rate", type=float, default=20.0, help="with --file: input firing rate in Hz (default 20)")
+    p.add_argument("--duration", type=float, default=100.0, help="with --file: ms per inference (default 100)")
+    p.add_argument("--dt", type=float, default=None, help="with --file: time step in ms (default: the hardware's)")
     p.add_argument("--hw", required=True, metavar="NAME", help="hwspec name (spinn5, kapoho-bay, loihi2) or .toml file")
     p.add_argument("--seed", type=int, default=0, help="seed of random connectors without their own (default 0)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -34,6 +40,15 @@ def run(args: argparse.Namespace) -> int:
     from .check_cmd import NETWORK_FILE, load_network_arg
 
     spec = load_hwspec(args.hw)
+    if args.file is not None:
+        from neurovpr.interop.activity import probe_activity
+
+        network = load_network_arg(None, args.file)
+        dt = args.dt if args.dt is not None else spec.timing.time_step_ms
+        activity = probe_activity(network, rate_hz=args.rate, duration_ms=args.duration, dt=dt, seed=args.seed)
+        report = estimate_energy(activity, spec, network=network, seed=args.seed)
+        print(json.dumps(report.as_dict(), indent=2) if args.json else report.table())
+        return 0
     base = Path(args.run)
     if not base.is_dir():
         raise ValidationError(f"Run directory {args.run!r} does not exist.")

@@ -124,7 +124,7 @@ def test_cli_check_run_dir_does_not_fit(tmp_path, capsys, neurovpr_main):
         (["--file", "{tmp}/absent.h5", "--hw", "spinn5"], "Network file '{tmp}/absent.h5' does not exist."),
         (["--run", "{tmp}", "--hw", "spinn5"], "Run directory '{tmp}' has no network.h5."),
         (["--run", "{tmp}/nope", "--hw", "spinn5"], "Run directory '{tmp}/nope' does not exist."),
-        (["--file", "{tmp}/graph.nir", "--hw", "spinn5"], "Reading NIR graphs ('{tmp}/graph.nir') is not available yet"),
+        (["--file", "{tmp}/graph.nir", "--hw", "spinn5"], "Network file '{tmp}/graph.nir' does not exist."),
         (["--file", "{tmp}/x.h5", "--hw", "truenorth"], "Unknown hardware 'truenorth'; known hwspecs: kapoho-bay"),
     ],
 )
