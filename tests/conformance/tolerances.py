@@ -57,9 +57,39 @@ class Override:
 #: The reference backend's bounds; every backend meets them unless overridden.
 DEFAULT = Tolerances()
 
-#: Looser bounds where a backend's numerics legitimately differ (none needed so far:
-#: every installed backend that runs integrates as the semantics prescribe).
-OVERRIDES: Mapping[str, Mapping[str, Override]] = MappingProxyType({})
+#: Looser bounds where a backend's numerics legitimately differ: the chip emulators
+#: compute in fixed point, so their traces and spike times carry quantisation error.
+OVERRIDES: Mapping[str, Mapping[str, Override]] = MappingProxyType(
+    {
+        "nengo-loihi": {
+            "psp_curr": Override(
+                changes={"trace_rel": 0.02},
+                reason="NengoLoihi's emulator computes in Loihi's formats (12-bit decays, 8-bit weight "
+                "mantissas); measured 0.58 % of the PSP peak",
+            ),
+            "psp_curr_equal_tau": Override(
+                changes={"trace_rel": 0.03},
+                reason="NengoLoihi's 12-bit decays compound in the alpha-shaped PSP; measured 1.08 % of the peak",
+            ),
+        },
+        "lava-fixed": {
+            "psp_curr": Override(
+                changes={"trace_rel": 0.02},
+                reason="Lava's fixed_pt models (bit-accurate Loihi 2): 12-bit du/dv, 8-bit weight mantissas, "
+                "u and v truncated every step; measured 0.77 % of the PSP peak",
+            ),
+            "psp_curr_equal_tau": Override(
+                changes={"trace_rel": 0.03},
+                reason="Loihi 2's 12-bit du and dv compound in the alpha-shaped PSP; measured 1.6 % of the peak",
+            ),
+            "lif_rate_curr": Override(
+                changes={"trace_rel": 0.02, "spike_time_ms": 3.0},
+                reason="the 12-bit membrane decay moves the steady state by up to 0.6 %: near rheobase "
+                "(0.3 nA) each interval grows by about 0.3 ms, 2.4 ms over 8 spikes",
+            ),
+        },
+    }
+)
 
 
 def tolerances_for(backend: str, case: str) -> Tolerances:

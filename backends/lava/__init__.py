@@ -1,0 +1,78 @@
+"""The ``lava`` and ``lava-fixed`` backends.
+
+Both compile a network to Lava processes (LIF, DelayDense/DelaySparse, Conv,
+injectors for spike sources and extractors for spikes) and run them with
+``Loihi2SimCfg``: ``lava`` selects
+the ``floating_pt`` models (off-chip), ``lava-fixed`` the ``fixed_pt`` models,
+bit-accurate with Loihi 2's number formats. They run inference: ``IF_curr_exp``
+populations with fixed weights, every connector, Poisson and array sources. See
+:mod:`.translation` for the mapping and the fixed-point formats.
+
+lava-nc 0.10.0 declares Python 3.10 only; on Python 3.11 it is installed with
+scripts/install_lava.sh and imported through :mod:`.compat`, which fixes its one
+incompatible module in memory. Importing this package does not import Lava.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from neurovpr.backend import Backend
+from neurovpr.errors import BackendUnavailableError, ValidationError
+
+from .capabilities import LAVA_CAPABILITIES, LAVA_FIXED_CAPABILITIES, network_problems
+
+__all__ = ["LavaBackend", "LavaFixedBackend", "LAVA", "LAVA_FIXED"]
+
+
+class LavaBackend(Backend):
+    """Declaration of the ``lava`` backend (floating-point process models)."""
+
+    name = "lava"
+    description = "Lava processes on Loihi2SimCfg, floating_pt models (off-chip; inference)"
+    requires: tuple[str, ...] = ("lava",)
+    version_of = "lava-nc"
+    extra = "lava"
+    capabilities = LAVA_CAPABILITIES
+    #: Select the fixed-point (bit-accurate Loihi 2) models.
+    fixed = False
+    #: Options ``compile`` accepts.
+    options = frozenset({"buffer_steps"})
+
+    def unavailable_reason(self) -> str | None:
+        """``None`` when Lava imports (through the Python 3.11 fix), otherwise why not and how to reinstall."""
+        from .compat import import_lava
+
+        try:
+            import_lava()
+        except BackendUnavailableError as exc:
+            return str(exc).rstrip(".")
+        return None
+
+    def unsupported_features(self, network: Any) -> list[str]:
+        """The capability table's refusals, then the parameters Lava's LIF cannot express."""
+        problems = super().unsupported_features(network)
+        return problems or network_problems(network)
+
+    def _compile(self, network: Any, *, dt: float, seed: int, hardware: Any, **options: Any) -> Any:
+        unknown = sorted(set(options) - self.options)
+        if unknown:
+            raise ValidationError(
+                f"Backend {self.name!r} has no option {unknown[0]!r} (options: {', '.join(sorted(self.options))})."
+            )
+        from .simulation import LavaSimulation
+
+        return LavaSimulation(network, backend=self.name, dt=dt, seed=seed, fixed=self.fixed, **options)
+
+
+class LavaFixedBackend(LavaBackend):
+    """Declaration of the ``lava-fixed`` backend (fixed-point models, bit-accurate Loihi 2)."""
+
+    name = "lava-fixed"
+    description = "Lava processes on Loihi2SimCfg, fixed_pt models (bit-accurate Loihi 2; inference)"
+    capabilities = LAVA_FIXED_CAPABILITIES
+    fixed = True
+
+
+LAVA = LavaBackend()
+LAVA_FIXED = LavaFixedBackend()

@@ -1,0 +1,265 @@
+"""Build functions: a neurovpr network as Lava processes.
+
+A neuron population becomes a ``LIF`` (or ``LIFRefractory``) process whose spikes
+leave through an ``Extractor``; a spike source an ``Injector`` into which the
+simulation sends one spike vector per step (Lava's channels carry one message per
+step, where setting a ``Var`` moves one element at a time); a projection one ``DelayDense`` or
+``DelaySparse`` process per distinct delay, or a ``Conv`` process where Lava's
+convolution reproduces the semantics exactly (from a spike source, one-step
+delay). Lava compiles only the processes connected to the one it runs, so
+separate parts of a network are tied to one silent hub neuron through
+zero-weight ``Dense`` processes.
+
+Lava itself is reached through :func:`.compat.import_lava` (which applies the
+Python 3.11 fix first).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import scipy.sparse
+
+from neurovpr.connectivity import Connections
+from neurovpr.connectors import ConvolutionConnector
+from neurovpr.network import Network, Projection
+
+from .compat import import_lava
+from .translation import LavaLIF, delay_steps, fixed_weights, lava_lif, weight_scale
+
+__all__ = ["LavaNetwork", "build_network", "receptors_by_population"]
+
+#: Above this fraction of connected pairs a projection is a ``DelayDense``.
+_DENSE_FRACTION = 0.25
+
+
+@dataclass
+class LavaNetwork:
+    """The Lava processes standing for each IR element."""
+
+    fixed: bool
+    buffer_steps: int
+    params: dict[str, LavaLIF] = field(default_factory=dict)
+    lifs: dict[str, Any] = field(default_factory=dict)
+    extractors: dict[str, Any] = field(default_factory=dict)
+    injectors: dict[str, Any] = field(default_factory=dict)
+    synapses: dict[str, list[Any]] = field(default_factory=dict)
+    kinds: dict[str, str] = field(default_factory=dict)
+    links: list[Any] = field(default_factory=list)
+
+    @property
+    def anchor(self) -> Any:
+        """The process the runtime is created from (every process is connected to it)."""
+        return next(iter(self.lifs.values()))
+
+    def run_config(self) -> Any:
+        """``Loihi2SimCfg`` selecting ``fixed_pt`` or ``floating_pt`` models.
+
+        Lava's injector and extractor models carry no tag, so they are named explicitly.
+        """
+        lava = import_lava()
+        from lava.proc.io.extractor import PyLoihiExtractorModel
+        from lava.proc.io.injector import PyLoihiInjectorModel
+
+        models: dict[Any, Any] = {lava.Injector: PyLoihiInjectorModel, lava.Extractor: PyLoihiExtractorModel}
+        if self.fixed:
+            from .models import PyLifRefractoryModelFixed
+
+            models[lava.LIFRefractory] = PyLifRefractoryModelFixed
+        return lava.Loihi2SimCfg(select_tag="fixed_pt" if self.fixed else "floating_pt", exception_proc_model_map=models)
+
+
+def receptors_by_population(network: Network) -> dict[str, frozenset[str]]:
+    """The receptor types of each population's incoming projections."""
+    found: dict[str, set[str]] = {name: set() for name in network.populations}
+    for proj in network.projections.values():
+        found[proj.post].add(proj.receptor_type)
+    return {name: frozenset(kinds) for name, kinds in found.items()}
+
+
+def _lif_process(lava: Any, params: LavaLIF, size: int, fixed: bool) -> Any:
+    if fixed:
+        kwargs: dict[str, Any] = {
+            "shape": (size,),
+            "u": np.zeros(size, dtype=np.int64),
+            "v": params.v_init_int,
+            "du": params.du_int,
+            "dv": params.dv_int,
+            "vth": params.fixed_v,
+            "bias_mant": params.bias_mant,
+            "bias_exp": params.bias_exp,
+        }
+    else:
+        kwargs = {
+            "shape": (size,),
+            "u": np.zeros(size),
+            "v": params.v_init.copy(),
+            "du": params.du,
+            "dv": params.dv,
+            "vth": params.vth,
+            "bias_mant": params.bias.copy(),
+            "bias_exp": np.zeros(size),
+        }
+    if params.refractory_steps > 0:
+        return lava.LIFRefractory(refractory_period=params.refractory_steps, **kwargs)
+    return lava.LIF(**kwargs)
+
+
+def _conv_process(lava: Any, proj: Projection, conn: ConvolutionConnector, kernel: np.ndarray, fixed: bool) -> Any | None:
+    """A ``Conv`` process for a convolution whose kernel (already scaled) Lava can hold, else ``None``."""
+    if fixed:
+        quant = fixed_weights(kernel)
+        if quant.exp < 0:
+            return None  # Lava's fixed-point Conv applies no weight exponent
+        kernel = quant.mantissa * 2**quant.exp
+    (c, h, w), (sh, sw), (ph, pw) = conn.input_shape, conn.stride, conn.padding
+    # Lava convolves (flipped kernel) in (x, y, channel) order; neurovpr correlates in (channel, y, x)
+    weight = np.ascontiguousarray(kernel[:, :, ::-1, ::-1].transpose(0, 3, 2, 1))
+    return lava.Conv(weight=weight, input_shape=(w, h, c), padding=(pw, ph), stride=(sw, sh), name=proj.name)
+
+
+def _matrix_process(
+    lava: Any,
+    pre: np.ndarray,
+    post: np.ndarray,
+    values: np.ndarray,
+    shape: tuple[int, int],
+    *,
+    delay: int,
+    fixed: bool,
+    v_post: float,
+    name: str,
+) -> Any:
+    matrix = scipy.sparse.coo_matrix((values, (post, pre)), shape=shape).tocsr()
+    matrix.sum_duplicates()
+    kwargs: dict[str, Any] = {"name": name}
+    if fixed:
+        quant = fixed_weights(matrix.data * v_post)
+        matrix.data = quant.mantissa.astype(np.float64)
+        sign = {"excitatory": "EXCITATORY", "inhibitory": "INHIBITORY", "mixed": "MIXED"}[quant.sign_mode]
+        kwargs.update(weight_exp=quant.exp, num_weight_bits=8, sign_mode=getattr(lava.SignMode, sign))
+    if matrix.nnz > _DENSE_FRACTION * shape[0] * shape[1]:
+        dense = matrix.toarray()
+        return lava.DelayDense(weights=dense.astype(np.int64) if fixed else dense, delays=delay, **kwargs)
+    if fixed:
+        matrix = matrix.astype(np.int64)
+    return lava.DelaySparse(weights=matrix, delays=delay, **kwargs)
+
+
+def _build_projection(
+    lava: Any, built: LavaNetwork, network: Network, proj: Projection, conns: Connections, weights: np.ndarray, dt: float
+) -> None:
+    params = built.params[proj.post]
+    scale = weight_scale(params, proj.receptor_type, dt)
+    from_source = network.populations[proj.pre].is_source
+    pre_port = built.injectors[proj.pre].out_port if from_source else built.lifs[proj.pre].s_out
+    post_lif = built.lifs[proj.post]
+    n_pre, n_post = network.populations[proj.pre].size, network.populations[proj.post].size
+    steps = delay_steps(conns.delay, dt)
+    made: list[Any] = []
+    conn = proj.connector
+    if isinstance(conn, ConvolutionConnector) and from_source and np.all(steps == 1) and np.allclose(scale, scale[0], rtol=1e-12):
+        kernel = np.asarray(proj.synapse.weight) * scale[0] * (params.fixed_v if built.fixed else 1.0)
+        process = _conv_process(lava, proj, conn, kernel, built.fixed)
+        if process is not None:
+            pre_port.reshape(conn.input_shape).transpose([2, 1, 0]).connect(process.s_in)
+            process.a_out.transpose([2, 1, 0]).reshape((n_post,)).connect(post_lif.a_in)
+            built.synapses[proj.name] = [process]
+            built.kinds[proj.name] = "Conv"
+            return
+    for k in np.unique(steps):
+        sel = steps == k
+        delay = int(k) - 1 if from_source else int(k)
+        values = weights[sel] * scale[conns.post[sel]]
+        process = _matrix_process(
+            lava,
+            conns.pre[sel],
+            conns.post[sel],
+            values,
+            (n_post, n_pre),
+            delay=delay,
+            fixed=built.fixed,
+            v_post=params.fixed_v,
+            name=proj.name,
+        )
+        pre_port.connect(process.s_in)
+        process.a_out.connect(post_lif.a_in)
+        made.append(process)
+    built.synapses[proj.name] = made
+    built.kinds[proj.name] = type(made[0]).__name__ if made else "none"
+
+
+def _components(network: Network) -> list[list[str]]:
+    """Groups of neuron populations joined by projections (spike sources join their targets)."""
+    parent = {name: name for name in network.populations}
+
+    def find(x: str) -> str:
+        while parent[x] != x:
+            parent[x] = parent[parent[x]]
+            x = parent[x]
+        return x
+
+    for proj in network.projections.values():
+        parent[find(proj.pre)] = find(proj.post)
+    groups: dict[str, list[str]] = {}
+    for name, pop in network.populations.items():
+        if not pop.is_source:
+            groups.setdefault(find(name), []).append(name)
+    return list(groups.values())
+
+
+def build_network(
+    network: Network,
+    connections: Mapping[str, Connections],
+    weights: Mapping[str, np.ndarray],
+    *,
+    dt: float,
+    fixed: bool,
+    buffer_steps: int,
+) -> LavaNetwork:
+    """Build the Lava processes of ``network`` (which has at least one neuron population).
+
+    Parameters
+    ----------
+    network
+        The (checked) network.
+    connections, weights
+        Each projection's expanded connections and current weights (canonical order).
+    dt
+        Time step (ms).
+    fixed
+        Use Loihi 2's fixed-point formats (``fixed_pt`` models).
+    buffer_steps
+        Capacity (in steps) of the injector and extractor channels: the most steps
+        one Lava run call may take.
+    """
+    lava = import_lava()
+    built = LavaNetwork(fixed=fixed, buffer_steps=buffer_steps)
+    receptors = receptors_by_population(network)
+    for name, pop in network.populations.items():
+        if pop.is_source:
+            if any(p.pre == name for p in network.projections.values()):
+                built.injectors[name] = lava.Injector(shape=(pop.size,), buffer_size=buffer_steps)
+            continue
+        params = lava_lif(pop, dt, receptors[name])
+        built.params[name] = params
+        lif = _lif_process(lava, params, pop.size, fixed)
+        extractor = lava.Extractor(shape=(pop.size,), buffer_size=buffer_steps)
+        lif.s_out.connect(extractor.in_port)
+        built.lifs[name], built.extractors[name] = lif, extractor
+    for proj in network.projections.values():
+        _build_projection(lava, built, network, proj, connections[proj.name], weights[proj.name], dt)
+    groups = _components(network)
+    if len(groups) > 1:
+        hub = lava.LIF(shape=(1,), vth=2**16, du=0, dv=0, name="neurovpr:hub")
+        for group in groups:
+            first = built.lifs[group[0]]
+            link = lava.Dense(weights=np.zeros((1, first.s_out.shape[0]), dtype=np.int64 if fixed else np.float64))
+            first.s_out.connect(link.s_in)
+            link.a_out.connect(hub.a_in)
+            built.links.append(link)
+        built.links.append(hub)
+    return built

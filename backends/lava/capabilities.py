@@ -1,0 +1,104 @@
+"""What the ``lava`` and ``lava-fixed`` backends can run, and why not the rest.
+
+Both run the inference subset: ``IF_curr_exp`` populations with fixed weights,
+every connector, Poisson and array sources, delays of whole steps. Lava's LIF
+has one synaptic current per neuron, so a population fed through both receptor
+types needs ``tau_syn_E == tau_syn_I``. ``lava-fixed`` adds Loihi 2's limits:
+delays of at most 63 steps (6 bits) and a bias that fits its 13-bit mantissa
+and 3-bit exponent.
+"""
+
+from __future__ import annotations
+
+from types import MappingProxyType
+
+import numpy as np
+
+from neurovpr.backend import Capabilities
+from neurovpr.cells import IF_curr_exp
+from neurovpr.connectivity import Connections
+from neurovpr.network import Network
+
+from .translation import delay_steps, lava_lif, lif_problems
+
+__all__ = ["LAVA_CAPABILITIES", "LAVA_FIXED_CAPABILITIES", "network_problems", "compile_problems"]
+
+#: Loihi 2 synaptic delays are 6-bit (lava/proc/dense/models.py, PyDelayDenseModelBitAcc).
+_MAX_FIXED_DELAY = 63
+
+_CELLS = frozenset({"IF_curr_exp", "SpikeSourcePoisson", "SpikeSourceArray"})
+_CONNECTORS = frozenset(
+    {
+        "AllToAllConnector",
+        "OneToOneConnector",
+        "FixedProbabilityConnector",
+        "FixedNumberPreConnector",
+        "FromListConnector",
+        "ConvolutionConnector",
+    }
+)
+_DELAY_LIMIT = "the case uses a 7.3 ms delay, 73 steps at dt = 0.1 ms; Loihi 2 synaptic delays are 6-bit (at most 63 steps)"
+#: Conformance cases (tests/conformance/cases.py) ``lava-fixed`` cannot run, with the reason.
+_FIXED_UNSUPPORTED = {"delay_shift": _DELAY_LIMIT, "delay_heterogeneous": _DELAY_LIMIT}
+
+LAVA_CAPABILITIES = Capabilities(
+    cell_types=_CELLS,
+    connectors=_CONNECTORS,
+    synapses=frozenset({"StaticSynapse"}),
+    learns=False,
+    heterogeneous_delays=True,
+    hardware=frozenset(),
+    recordables=frozenset({"v"}),
+    unsupported=MappingProxyType({}),
+)
+
+LAVA_FIXED_CAPABILITIES = Capabilities(
+    cell_types=_CELLS,
+    connectors=_CONNECTORS,
+    synapses=frozenset({"StaticSynapse"}),
+    learns=False,
+    heterogeneous_delays=True,
+    hardware=frozenset({"loihi2"}),
+    recordables=frozenset({"v"}),
+    unsupported=MappingProxyType(_FIXED_UNSUPPORTED),
+)
+
+
+def network_problems(network: Network) -> list[str]:
+    """Features of ``network`` Lava's LIF cannot express (beyond the capability table)."""
+    problems: list[str] = []
+    for pop in network.populations.values():
+        problems.extend(lif_problems(pop))
+    receptors: dict[str, set[str]] = {}
+    for proj in network.projections.values():
+        receptors.setdefault(proj.post, set()).add(proj.receptor_type)
+    for post, kinds in receptors.items():
+        cell = network.populations[post].cell_type
+        if isinstance(cell, IF_curr_exp) and len(kinds) == 2:
+            tau_e, tau_i = np.asarray(cell.tau_syn_E), np.asarray(cell.tau_syn_I)
+            if not np.allclose(tau_e, tau_i, rtol=1e-9):
+                problems.append(
+                    f"tau_syn_E {np.ravel(tau_e)[0]:g} ms != tau_syn_I {np.ravel(tau_i)[0]:g} ms with both receptors "
+                    f"used (population {post!r}; Lava's LIF has one synaptic current)"
+                )
+    return problems
+
+
+def compile_problems(network: Network, connections: dict[str, Connections], dt: float, *, fixed: bool) -> list[str]:
+    """Problems that depend on the time step: delays and (fixed point) the bias format."""
+    problems: list[str] = []
+    if fixed:
+        for name, conns in connections.items():
+            steps = delay_steps(conns.delay, dt)
+            if steps.size and steps.max() > _MAX_FIXED_DELAY:
+                problems.append(
+                    f"delay {steps.max() * dt:g} ms = {steps.max()} steps (projection {name!r}; "
+                    f"Loihi 2 delays are at most {_MAX_FIXED_DELAY} steps)"
+                )
+        for pop in network.populations.values():
+            if isinstance(pop.cell_type, IF_curr_exp):
+                try:
+                    lava_lif(pop, dt)
+                except ValueError as exc:
+                    problems.append(str(exc))
+    return problems

@@ -1,0 +1,293 @@
+"""The ``lava`` and ``lava-fixed`` simulations: a Lava runtime driven in chunks of ring-buffer length."""
+
+from __future__ import annotations
+
+import time
+import weakref
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from neurovpr.connectivity import expand
+from neurovpr.connectors import ConvolutionConnector
+from neurovpr.errors import SimulationError, UnsupportedFeatureError, ValidationError
+from neurovpr.network import Network
+from neurovpr.simulation import Simulation
+
+from .capabilities import compile_problems
+from .compat import import_lava
+from .sources import SourceState
+
+__all__ = ["LavaSimulation"]
+
+
+def _stop(process: Any) -> None:
+    """Stop the Lava runtime of ``process`` and its worker processes.
+
+    A runtime that was created but never started cannot be stopped through Lava
+    (its workers wait for a first command), so its workers are terminated.
+    """
+    runtime = getattr(process, "runtime", None)
+    if runtime is None:
+        return
+    if runtime._is_started:
+        process.stop()
+        return
+    infrastructure = runtime._messaging_infrastructure
+    for actor in infrastructure.actors:
+        actor.terminate()
+    if infrastructure.smm is not None:
+        infrastructure.smm.shutdown()
+
+
+class LavaSimulation(Simulation):
+    """A network as Lava processes on ``Loihi2SimCfg``.
+
+    Parameters
+    ----------
+    network, backend, dt, seed
+        As for :class:`~neurovpr.simulation.Simulation`.
+    fixed
+        Select the ``fixed_pt`` (bit-accurate Loihi 2) process models instead of ``floating_pt``.
+    buffer_steps
+        Steps per Lava run call (capacity of the injector and extractor channels);
+        longer runs are split into chunks of this length.
+
+    Notes
+    -----
+    Lava's runtime lives in worker processes; :meth:`close` stops them (they are
+    also stopped when the simulation is garbage-collected or the interpreter exits).
+    Recording ``v`` runs one step per Lava call, which is much slower.
+    """
+
+    def __init__(
+        self,
+        network: Network,
+        *,
+        backend: str,
+        dt: float,
+        seed: int,
+        fixed: bool,
+        buffer_steps: int = 1000,
+    ) -> None:
+        super().__init__(network, backend=backend, dt=dt, seed=seed)
+        if isinstance(buffer_steps, bool) or not isinstance(buffer_steps, (int, np.integer)) or buffer_steps < 1:
+            raise ValidationError(f"Backend {backend!r}: buffer_steps must be an integer >= 1, got {buffer_steps!r}.")
+        net = self._network
+        self._fixed = fixed
+        self._buffer = int(buffer_steps)
+        self._conns = {name: expand(net, proj, dt=dt, seed=seed) for name, proj in net.projections.items()}
+        problems = compile_problems(net, self._conns, dt, fixed=fixed)
+        if problems:
+            more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+            raise UnsupportedFeatureError(f"Backend {backend!r} cannot run {problems[0]}{more}.")
+        self._values = {name: conns.weight.copy() for name, conns in self._conns.items()}
+        self._out_degree = {
+            name: np.bincount(conns.pre, minlength=net.populations[net.projections[name].pre].size)
+            for name, conns in self._conns.items()
+        }
+        self._sources = {name: SourceState(pop, dt=dt, seed=seed) for name, pop in net.populations.items() if pop.is_source}
+        self._neuron_pops = [name for name, pop in net.populations.items() if not pop.is_source]
+        self._steps = 0
+        self._stats = {"steps": 0, "neuron_updates": 0, "spikes": 0, "synaptic_events": 0, "plastic_updates": 0}
+        self._run_ns = 0
+        self._build_ns = 0
+        self._built: Any = None
+        self._finalizer: Any = None
+        self._clear_records()
+        self._build()
+
+    # -- building --------------------------------------------------------------
+    def _build(self) -> None:
+        self.close()
+        if not self._neuron_pops:
+            return
+        import_lava()
+        from .build import build_network
+
+        started = time.perf_counter_ns()
+        built = build_network(self._network, self._conns, self._values, dt=self._dt, fixed=self._fixed, buffer_steps=self._buffer)
+        anchor = built.anchor
+        config = built.run_config()
+        anchor.create_runtime(run_cfg=config)
+        self._finalizer = weakref.finalize(self, _stop, anchor)
+        try:
+            # Lava sets variables only in a started runtime: run one silent step, then restore the initial state
+            for injector in built.injectors.values():
+                injector.send(np.zeros(injector.out_port.shape))
+            anchor.run(condition=import_lava().RunSteps(num_steps=1, blocking=True), run_cfg=config)
+            for extractor in built.extractors.values():
+                extractor.receive()
+            self._built = built
+            self._reset_processes()
+        except Exception:
+            self.close()
+            raise
+        self._build_ns += time.perf_counter_ns() - started
+
+    def close(self) -> None:
+        """Stop Lava's runtime (the simulation cannot run afterwards)."""
+        if self._finalizer is not None:
+            self._finalizer()
+            self._finalizer = None
+        self._built = None
+
+    def _clear_records(self) -> None:
+        pops = self._network.populations
+        self._counts = {name: np.zeros(pop.size, dtype=np.int64) for name, pop in pops.items()}
+        self._trains: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {name: [] for name in pops}
+        self._voltages: dict[str, list[np.ndarray]] = {name: [] for name, var in self._recording if var == "v"}
+
+    # -- facts -----------------------------------------------------------------
+    @property
+    def time(self) -> float:
+        """Simulated time since the last reset (ms)."""
+        return self._steps * self._dt
+
+    def process_kinds(self) -> dict[str, str]:
+        """The Lava process class each projection became (``DelayDense``, ``DelaySparse`` or ``Conv``)."""
+        return dict(self._built.kinds) if self._built is not None else {}
+
+    # -- running ---------------------------------------------------------------
+    def _set_input(self, population: str, value: Any) -> None:
+        self._sources[population].set(value)
+
+    def _run(self, n_steps: int) -> None:
+        if self._neuron_pops and self._built is None:
+            raise SimulationError(f"Backend {self._backend!r}: the simulation was closed.")
+        done = 0
+        while done < n_steps:
+            length = min(self._buffer, n_steps - done)
+            self._run_chunk(length)
+            done += length
+        n_neurons = sum(self._network.populations[name].size for name in self._neuron_pops)
+        self._stats["steps"] += n_steps
+        self._stats["neuron_updates"] += n_steps * n_neurons
+
+    def _run_chunk(self, length: int) -> None:
+        """Queue the sources' spikes, run ``length`` steps (one by one when recording ``v``), collect the spikes."""
+        built = self._built
+        first = self._steps
+        for name, source in self._sources.items():
+            raster = source.raster(first, length)
+            self._record_spikes(name, raster, first, source_stamps=True)
+            if built is not None and name in built.injectors:
+                for row in raster.astype(np.float64):
+                    built.injectors[name].send(row)
+        if built is not None:
+            lava = import_lava()
+            config = built.run_config()
+            per_call = 1 if self._voltages else length
+            for _ in range(length // per_call):
+                started = time.perf_counter_ns()
+                built.anchor.run(condition=lava.RunSteps(num_steps=per_call, blocking=True), run_cfg=config)
+                self._run_ns += time.perf_counter_ns() - started
+                for name in self._voltages:
+                    self._voltages[name].append(self._read_voltage(name)[None, :])
+            for name, extractor in built.extractors.items():
+                spikes = np.stack([extractor.receive() for _ in range(length)]) > 0
+                self._record_spikes(name, spikes, first, source_stamps=False)
+        self._steps += length
+
+    def _read_voltage(self, name: str) -> np.ndarray:
+        params = self._built.params[name]
+        v = np.asarray(self._built.lifs[name].v.get(), dtype=np.float64)
+        if self._fixed:
+            v = v / (64.0 * params.fixed_v)
+        return params.v_zero + v * params.v_scale
+
+    def _record_spikes(self, name: str, raster: np.ndarray, first: int, *, source_stamps: bool) -> None:
+        rows, idx = np.nonzero(raster)
+        times = (first + rows + (0 if source_stamps else 1)) * self._dt
+        self._trains[name].append((times, idx))
+        counts = np.bincount(idx, minlength=raster.shape[1])
+        self._counts[name] += counts
+        self._stats["spikes"] += int(idx.size)
+        for pname, proj in self._network.projections.items():
+            if proj.pre == name:
+                self._stats["synaptic_events"] += int(counts @ self._out_degree[pname])
+
+    def _reset(self) -> None:
+        self._reset_processes()
+        self._steps = 0
+        self._clear_records()
+
+    def _reset_processes(self) -> None:
+        """Membranes, currents, refractoriness and spikes in flight back to their initial values."""
+        built = self._built
+        if built is not None:
+            for name, lif in built.lifs.items():
+                params = built.params[name]
+                size = params.v_init.size
+                if self._fixed:
+                    lif.u.set(np.zeros(size, dtype=np.int64))
+                    lif.v.set(params.v_init_int.copy())
+                else:
+                    lif.u.set(np.zeros(size))
+                    lif.v.set(params.v_init.copy())
+                if params.refractory_steps > 0:
+                    lif.refractory_period_end.set(np.zeros(size, dtype=np.int64))
+            for processes in built.synapses.values():
+                for process in processes:
+                    buffer = process.a_buf if hasattr(process, "a_buf") else process.a_buff
+                    buffer.set(np.zeros(buffer.shape, dtype=np.int64 if self._fixed else np.float64))
+
+    def _set_plasticity(self, on: bool) -> None:
+        """Nothing learns here (plastic synapses are refused at compile)."""
+
+    def _set_recording(self, population: str, variable: str, neurons: np.ndarray) -> None:
+        if variable != "v":
+            del self._recording[(population, variable)]
+            raise UnsupportedFeatureError(f"record: backend {self._backend!r} records only 'v', not {variable!r}.")
+        self._voltages.setdefault(population, [])
+
+    # -- reading ---------------------------------------------------------------
+    def _spike_counts(self, population: str) -> np.ndarray:
+        return self._counts[population].copy()
+
+    def _spike_trains(self, population: str) -> tuple[np.ndarray, np.ndarray]:
+        parts = self._trains[population]
+        if not parts:
+            return np.zeros(0), np.zeros(0, dtype=np.int64)
+        times = np.concatenate([p[0] for p in parts])
+        idx = np.concatenate([p[1] for p in parts])
+        order = np.lexsort((idx, times))
+        return times[order], idx[order]
+
+    def _trace(self, population: str, variable: str) -> tuple[np.ndarray, np.ndarray]:
+        neurons = self._recording[(population, variable)]
+        parts = self._voltages.get(population, [])
+        values = np.concatenate(parts) if parts else np.zeros((0, self._network.populations[population].size))
+        start = self._steps - values.shape[0]
+        times = (start + np.arange(values.shape[0]) + 1) * self._dt
+        return times, values[:, neurons]
+
+    def _connections(self, projection: str) -> tuple[np.ndarray, np.ndarray]:
+        conns = self._conns[projection]
+        return conns.pre, conns.post
+
+    def _weights(self, projection: str) -> np.ndarray:
+        return self._values[projection].copy()
+
+    def _set_weights(self, projection: str, values: np.ndarray) -> None:
+        if isinstance(self._network.projections[projection].connector, ConvolutionConnector):
+            raise UnsupportedFeatureError(
+                f"set_weights: projection {projection!r} is convolutional; its shared kernel is fixed at compile."
+            )
+        if self._steps:
+            raise SimulationError(
+                f"set_weights: backend {self._backend!r} rebuilds its processes to change weights; "
+                f"call reset() before setting the weights of {projection!r}."
+            )
+        self._values[projection] = values
+        self._build()
+
+    def _learned_state(self, population: str) -> dict[str, np.ndarray]:
+        return {}
+
+    def _statistics(self) -> Mapping[str, int]:
+        stats = dict(self._stats)
+        stats["run_wall_ns"] = self._run_ns
+        stats["build_wall_ns"] = self._build_ns
+        return stats

@@ -1,0 +1,79 @@
+"""The ``nengo`` and ``nengo-loihi`` backends.
+
+``nengo`` runs a network on Nengo's reference simulator (off-chip, floating point);
+``nengo-loihi`` builds the same Nengo network with NengoLoihi and runs it on
+NengoLoihi's Loihi emulator (on-chip: NengoLoihi's block splitting and Loihi
+number formats, no hardware needed). Both run inference: ``IF_curr_exp``
+populations with fixed weights, dense, sparse and convolutional projections,
+Poisson and array sources. See :mod:`.translation` for the mapping and where its
+numerics differ from docs/semantics.md.
+
+Importing this package does not import Nengo.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+from neurovpr.backend import Backend
+from neurovpr.errors import ValidationError
+
+from .capabilities import NENGO_CAPABILITIES, NENGO_LOIHI_CAPABILITIES, network_problems
+
+__all__ = ["NengoBackend", "NengoLoihiBackend", "NENGO", "NENGO_LOIHI"]
+
+
+class NengoBackend(Backend):
+    """Declaration of the ``nengo`` backend (Nengo's reference simulator)."""
+
+    name = "nengo"
+    description = "Nengo reference simulator (off-chip, floating point; inference)"
+    requires: tuple[str, ...] = ("nengo",)
+    version_of = "nengo"
+    extra = "nengo"
+    capabilities = NENGO_CAPABILITIES
+    #: Build for NengoLoihi's emulator.
+    loihi = False
+    #: Options ``compile`` accepts.
+    options: frozenset[str] = frozenset()
+
+    def unavailable_reason(self) -> str | None:
+        """``None`` when the simulators import, otherwise why not (with the extra to install).
+
+        NengoLoihi 1.1 warns at import that it was tested up to Nengo 3.2; it runs on
+        Nengo 4.1 (its own emulator tests pass), so the warning is not repeated here.
+        """
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=".*nengo_loihi.*has not been tested.*")
+            return super().unavailable_reason()
+
+    def unsupported_features(self, network: Any) -> list[str]:
+        """The capability table's refusals, then the parameters Nengo's LIF cannot express."""
+        problems = super().unsupported_features(network)
+        return problems or network_problems(network, loihi=self.loihi)
+
+    def _compile(self, network: Any, *, dt: float, seed: int, hardware: Any, **options: Any) -> Any:
+        unknown = sorted(set(options) - self.options)
+        if unknown:
+            known = ", ".join(sorted(self.options)) or "none"
+            raise ValidationError(f"Backend {self.name!r} has no option {unknown[0]!r} (options: {known}).")
+        from .simulation import NengoSimulation
+
+        return NengoSimulation(network, backend=self.name, dt=dt, seed=seed, loihi=self.loihi, hardware=hardware, **options)
+
+
+class NengoLoihiBackend(NengoBackend):
+    """Declaration of the ``nengo-loihi`` backend (NengoLoihi's Loihi emulator)."""
+
+    name = "nengo-loihi"
+    description = "NengoLoihi Loihi emulator (on-chip: Loihi partitioning and number formats; inference)"
+    requires = ("nengo", "nengo_loihi")
+    version_of = "nengo-loihi"
+    capabilities = NENGO_LOIHI_CAPABILITIES
+    loihi = True
+    options = frozenset({"block_shapes"})
+
+
+NENGO = NengoBackend()
+NENGO_LOIHI = NengoLoihiBackend()
