@@ -47,6 +47,18 @@ class ModelPlugin:
         """Evaluate the run in ``args.run``; return the JSON object ``eval --json`` prints."""
         raise NotImplementedError
 
+    def infer(self, run_dir: Path, data: Path | None, backend: str, *, seed: int = 0) -> dict[str, Any]:
+        """Run the trained model of ``run_dir`` on ``backend`` over the query set of ``data``.
+
+        Used by ``neurovpr compare``. Returns a dict with ``"metrics"`` (the model's
+        accuracy metrics), ``"predictions"`` (one predicted place per query, a list of
+        ints), ``"output_counts"`` (a ``(queries, outputs)`` array of output spike
+        counts), ``"seconds_per_query"`` and ``"activity"`` (per-inference counts as
+        ``Simulation.statistics()`` gives them). A model that cannot run on the
+        backend raises :class:`~neurovpr.errors.UnsupportedFeatureError` naming why.
+        """
+        raise NotImplementedError(f"Model {self.name!r} does not implement inference for compare.")
+
 
 def _entry_points() -> list[importlib.metadata.EntryPoint]:
     return sorted(importlib.metadata.entry_points(group=MODEL_ENTRY_POINT_GROUP), key=lambda ep: ep.name)
