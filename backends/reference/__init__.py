@@ -4,6 +4,7 @@ Exact integration of the linear subthreshold dynamics per step, event-driven CSR
 spike propagation with delays, Poisson and array sources, pair STDP and the
 Diehl & Cook rule with per-synapse traces, adaptive thresholds and the Ca2+
 adaptation current. The whole step loop runs in one compiled function.
+With ``hardware=`` it computes in a chip's number formats instead (:mod:`.fixed_point`).
 """
 
 from __future__ import annotations
@@ -26,9 +27,13 @@ class ReferenceBackend(Backend):
     capabilities = CAPABILITIES
 
     def _compile(self, network: Any, *, dt: float, seed: int, hardware: Any, **options: Any) -> Any:
+        if hardware is not None:
+            from .fixed_point import FixedPointSimulation
+
+            return FixedPointSimulation(network, dt=dt, seed=seed, hardware=hardware, **options)
         from .simulation import ReferenceSimulation
 
-        return ReferenceSimulation(network, dt=dt, seed=seed, hardware=hardware, **options)
+        return ReferenceSimulation(network, dt=dt, seed=seed, **options)
 
 
 BACKEND = ReferenceBackend()

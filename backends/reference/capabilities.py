@@ -6,6 +6,19 @@ from types import MappingProxyType
 
 from neurovpr.backend import Capabilities
 
+#: Hwspec names whose number formats the backend emulates, and the arithmetic used for each
+#: (backends/reference/fixed_point.py; docs/number_formats.md): Loihi 1 as NengoLoihi's emulator
+#: computes it, Loihi 2 as Lava's bit-accurate process models do, SpiNNaker as sPyNNaker's LIF.
+EMULATED_HARDWARE = MappingProxyType({"kapoho-bay": "loihi1", "loihi2": "loihi2", "spinn5": "spinnaker"})
+#: State variables recorded in each emulated arithmetic.
+RECORDABLE_ON_HARDWARE = MappingProxyType(
+    {
+        "loihi1": frozenset({"v"}),
+        "loihi2": frozenset({"v"}),
+        "spinnaker": frozenset({"v", "isyn_exc", "isyn_inh", "gsyn_exc", "gsyn_inh", "i_ca2"}),
+    }
+)
+
 CAPABILITIES = Capabilities(
     cell_types=frozenset(
         {
@@ -30,6 +43,7 @@ CAPABILITIES = Capabilities(
     synapses=frozenset({"StaticSynapse", "STDPMechanism", "DiehlCookSTDP"}),
     learns=True,
     heterogeneous_delays=True,
+    hardware=frozenset(EMULATED_HARDWARE),
     recordables=frozenset({"v", "isyn_exc", "isyn_inh", "gsyn_exc", "gsyn_inh", "theta", "i_ca2"}),
     unsupported=MappingProxyType({}),
 )

@@ -27,7 +27,7 @@ class ReferenceSimulation(Simulation):
     network, dt, seed
         See :func:`neurovpr.compile`.
     hardware
-        Not supported yet by this backend (refused by its capabilities).
+        Unused here: with a hwspec the backend builds :class:`.fixed_point.FixedPointSimulation`.
     record_spikes
         Names of the populations whose spike trains are kept (default: all). Spike
         counts are always kept; leaving trains out saves memory in long training runs.
