@@ -124,7 +124,15 @@ def _kind(vertex: Any) -> str:
     return "neurons"
 
 
+def _matrix_bytes(vertex: Any) -> int | None:
+    """SDRAM of the core's synaptic matrix region, or ``None`` for a core without one."""
+    regions = getattr(type(vertex), "SYNAPSE_REGIONS", None)
+    cost = getattr(vertex.sdram_required, "regions", {}).get(getattr(regions, "synaptic_matrix", None))
+    return None if cost is None else int(cost.get_total_sdram(0))
+
+
 def _placements(view: Any, names: set[str]) -> list[dict[str, Any]]:
+    """One row per core holding a population, in the order sPyNNaker placed them."""
     n_steps = view.get_plan_n_timestep()
     rows = []
     for placement in view.iterate_placemements():  # sic: sPyNNaker's spelling
@@ -145,11 +153,11 @@ def _placements(view: Any, names: set[str]) -> list[dict[str, Any]]:
                 "y": int(placement.y),
                 "p": int(placement.p),
                 "sdram_bytes": int(vertex.sdram_required.get_total_sdram(n_steps)),
+                "synaptic_matrix_bytes": _matrix_bytes(vertex),
                 "kind": _kind(vertex),
                 "vertex": type(vertex).__name__,
             }
         )
-    rows.sort(key=lambda r: (r["population"], r["lo_atom"], r["kind"], r["x"], r["y"], r["p"]))
     return rows
 
 
@@ -172,11 +180,13 @@ def map_network(network: Network, *, dt: float, seed: int, n_boards: int = 1) ->
     dict
         ``chips`` and ``cores``: chips and cores holding the network's populations
         (sPyNNaker's own monitor cores on every chip are not counted);
-        ``sdram_bytes``: SDRAM those cores need; ``placements``: one row per core with
-        ``population``, ``lo_atom``, ``hi_atom`` (inclusive), ``x``, ``y``, ``p``,
-        ``sdram_bytes``, ``kind`` (``neurons``, ``synapses``, ``source`` or ``delays``)
-        and ``vertex`` (sPyNNaker's machine-vertex class); ``machine_chips``: chips of
-        the virtual machine; ``timestep_ms``.
+        ``sdram_bytes``: SDRAM those cores need; ``placements``: one row per core, in
+        the order sPyNNaker placed them, with ``population``, ``lo_atom``, ``hi_atom``
+        (inclusive), ``x``, ``y``, ``p``, ``sdram_bytes``, ``synaptic_matrix_bytes``
+        (the core's synaptic matrix region, ``None`` for cores without synapses),
+        ``kind`` (``neurons``, ``synapses``, ``source`` or ``delays``) and ``vertex``
+        (sPyNNaker's machine-vertex class); ``machine_chips``: chips of the virtual
+        machine; ``timestep_ms``.
 
     Raises
     ------

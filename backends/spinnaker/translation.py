@@ -1,14 +1,24 @@
 """Translate the IR into sPyNNaker's PyNN objects (called inside a set-up sPyNNaker session).
 
 Populations become sPyNNaker's standard types (``IF_curr_exp``, ``IF_cond_exp``,
-``SpikeSourcePoisson``, ``SpikeSourceArray``) or ``extra_models.IFCurrExpCa2Adaptive``;
-each projection becomes a ``FromListConnector`` holding the canonical connections of
-:func:`neurovpr.connectivity.expand`, so the mapped synaptic matrices are exactly
-those of every other backend for the same seed. sPyNNaker takes non-negative weights
-and lets the receptor give the sign; negative weights onto the excitatory receptor of
-a current-based population (signed currents) are mapped as two projections, the
-positive weights onto the excitatory and the magnitudes of the negative ones onto
-the inhibitory receptor, as one would deploy them on SpiNNaker.
+``SpikeSourcePoisson``, ``SpikeSourceArray``) or ``extra_models.IFCurrExpCa2Adaptive``.
+A projection becomes sPyNNaker's own ``AllToAllConnector`` or ``OneToOneConnector``
+when that connector makes exactly the canonical synapses of
+:func:`neurovpr.connectivity.expand` (:func:`uses_native_connector`: one weight and
+one delay for every synapse, and for all-to-all without self-connections, a
+projection of a population onto itself, the only case in which sPyNNaker leaves
+``i -> i`` out). Every other projection is a ``FromListConnector`` holding the
+canonical connections; that includes the random connectors, whose sPyNNaker
+counterparts would draw other synapses with sPyNNaker's own generator. The mapped
+synaptic matrices are therefore exactly those of every other backend for the same
+seed, and those the SpiNNaker fit checker (:mod:`neurovpr.hardware.spinnaker`) sizes.
+
+sPyNNaker takes non-negative weights and lets the receptor give the sign: a
+projection onto the excitatory receptor of a current-based population whose
+weights are all negative goes onto its inhibitory receptor with their magnitudes,
+and one with weights of both signs is mapped as two projections, the non-negative
+weights onto the excitatory and the magnitudes of the negative ones onto the
+inhibitory receptor (:func:`signed_parts`), as one would deploy it on SpiNNaker.
 """
 
 from __future__ import annotations
@@ -20,6 +30,7 @@ import numpy as np
 
 from neurovpr.cells import SpikeSourceArray, SpikeSourcePoisson
 from neurovpr.connectivity import expand
+from neurovpr.connectors import AllToAllConnector, OneToOneConnector
 from neurovpr.network import Network, Population, Projection
 from neurovpr.node import field_values
 from neurovpr.pynn_names import (
@@ -31,7 +42,7 @@ from neurovpr.pynn_names import (
 )
 from neurovpr.synapses import STDPMechanism
 
-__all__ = ["build_population", "build_projection", "build_network"]
+__all__ = ["build_population", "build_projection", "build_network", "uses_native_connector", "signed_parts"]
 
 #: sPyNNaker's stand-in for an unbounded Poisson duration (ms).
 _LONG = 1e12
@@ -73,10 +84,43 @@ def _scaled(value: Any, scale: float) -> Any:
     return np.asarray(value, dtype=np.float64) * scale if isinstance(value, np.ndarray) else float(value) * scale
 
 
-def _synapse(sim: ModuleType, proj: Projection) -> Any:
+def uses_native_connector(proj: Projection) -> bool:
+    """Whether sPyNNaker's own connector makes exactly the canonical synapses of ``proj``.
+
+    True for ``AllToAllConnector`` and ``OneToOneConnector`` with one (float) weight
+    and one delay (or none) for every synapse; sPyNNaker's all-to-all leaves ``i -> i``
+    out only when a population projects onto itself, so an all-to-all without
+    self-connections between two populations is an explicit list.
+    """
+    conn = proj.connector
+    delay = proj.synapse.delay
+    if not isinstance(conn, (AllToAllConnector, OneToOneConnector)):
+        return False
+    if isinstance(conn, AllToAllConnector) and not conn.allow_self_connections and proj.pre != proj.post:
+        return False
+    return isinstance(proj.synapse.weight, float) and (delay is None or isinstance(delay, float))
+
+
+def signed_parts(network: Network, proj: Projection, weight: np.ndarray) -> list[tuple[np.ndarray, str, str]]:
+    """``(mask, receptor, label)`` of each sPyNNaker projection of ``proj`` given its weights.
+
+    Onto the excitatory receptor of a current-based population, non-negative weights
+    stay there and negative ones go to the inhibitory receptor (two projections when
+    both occur, labelled ``name[+]`` and ``name[-]``); otherwise one projection.
+    """
+    every = np.ones(weight.size, dtype=bool)
+    current = not network.populations[proj.post].cell_type.conductance_based
+    if proj.receptor_type != "excitatory" or not current or not weight.size or weight.min() >= 0:
+        return [(every, proj.receptor_type, proj.name)]
+    if weight.max() < 0:
+        return [(every, "inhibitory", proj.name)]
+    return [(weight >= 0, "excitatory", f"{proj.name}[+]"), (weight < 0, "inhibitory", f"{proj.name}[-]")]
+
+
+def _synapse(sim: ModuleType, proj: Projection, **values: float) -> Any:
     syn = proj.synapse
     if not isinstance(syn, STDPMechanism):
-        return sim.StaticSynapse()
+        return sim.StaticSynapse(**values)
     t_name, t_rows = TIMING_DEPENDENCES[type(syn.timing_dependence).__name__]
     w_name, w_rows = WEIGHT_DEPENDENCES[type(syn.weight_dependence).__name__]
     t_vals = field_values(syn.timing_dependence)
@@ -84,6 +128,34 @@ def _synapse(sim: ModuleType, proj: Projection) -> Any:
     return sim.STDPMechanism(
         timing_dependence=getattr(sim, t_name)(**{py: float(t_vals[ir]) * s for ir, py, s in t_rows}),
         weight_dependence=getattr(sim, w_name)(**{py: float(w_vals[ir]) * s for ir, py, s in w_rows}),
+        **values,
+    )
+
+
+def _steps(delay_ms: np.ndarray | float, dt: float) -> np.ndarray:
+    """Delays rounded to whole time steps of at least one (sPyNNaker rounds them the same way)."""
+    return np.maximum(np.rint(np.asarray(delay_ms, dtype=np.float64) / dt), 1) * dt
+
+
+def _native_projection(sim: ModuleType, network: Network, proj: Projection, populations: dict[str, Any], *, dt: float) -> Any:
+    weight = float(proj.synapse.weight)
+    bounds = proj.synapse.weight_bounds
+    if bounds is not None:
+        weight = float(np.clip(weight, *bounds))
+    delay = float(_steps(dt if proj.synapse.delay is None else proj.synapse.delay, dt))
+    ((_, receptor, label),) = signed_parts(network, proj, np.array([weight]))
+    conn = proj.connector
+    if isinstance(conn, AllToAllConnector):
+        connector = sim.AllToAllConnector(allow_self_connections=conn.allow_self_connections)
+    else:
+        connector = sim.OneToOneConnector()
+    return sim.Projection(
+        populations[proj.pre],
+        populations[proj.post],
+        connector,
+        synapse_type=_synapse(sim, proj, weight=abs(weight), delay=delay),
+        receptor_type=receptor,
+        label=label,
     )
 
 
@@ -91,18 +163,12 @@ def build_projection(
     sim: ModuleType, network: Network, proj: Projection, populations: dict[str, Any], *, dt: float, seed: int
 ) -> list[Any]:
     """Create the sPyNNaker projection(s) of an IR projection with its canonical connections."""
+    if uses_native_connector(proj):
+        return [_native_projection(sim, network, proj, populations, dt=dt)]
     conns = expand(network, proj, dt=dt, seed=seed)
-    delay = np.maximum(np.rint(conns.delay / dt), 1) * dt
-    current = not network.populations[proj.post].cell_type.conductance_based
-    if proj.receptor_type == "excitatory" and current and conns.weight.size and conns.weight.min() < 0:
-        parts = [
-            (conns.weight >= 0, "excitatory", f"{proj.name}[+]"),
-            (conns.weight < 0, "inhibitory", f"{proj.name}[-]"),
-        ]
-    else:
-        parts = [(np.ones(len(conns), dtype=bool), proj.receptor_type, proj.name)]
+    delay = _steps(conns.delay, dt)
     made = []
-    for keep, receptor, label in parts:
+    for keep, receptor, label in signed_parts(network, proj, conns.weight):
         if not keep.any():
             continue
         rows = np.column_stack([conns.pre[keep], conns.post[keep], np.abs(conns.weight[keep]), delay[keep]])

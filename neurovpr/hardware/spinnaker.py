@@ -1,11 +1,15 @@
 """sPyNNaker's rules for putting a network onto a SpiNNaker board.
 
-The network is translated as an equivalent PyNN script for ``pyNN.spiNNaker`` would be:
+The network is translated as the spinnaker backend translates it for sPyNNaker:
 ``AllToAllConnector`` and ``OneToOneConnector`` with one weight and one delay for all
-synapses are sPyNNaker's own connectors; every other projection (random, convolution or
-explicit connectors, per-synapse weights or delays) is the explicit list of its
-connections (``FromListConnector``), so that the synapses are exactly those of
-:func:`neurovpr.expand`.
+synapses are sPyNNaker's own connectors (an all-to-all without self-connections only
+from a population onto itself, the one case where sPyNNaker leaves ``i -> i`` out);
+every other projection (random, convolution or explicit connectors, per-synapse
+weights or delays) is the explicit list of its connections (``FromListConnector``), so
+that the synapses are exactly those of :func:`neurovpr.expand`. Synaptic words hold
+unsigned weights: a list onto the excitatory receptor of a current-based population
+with weights of both signs is two projections, the negative weights onto the
+inhibitory receptor. Delays are rounded to whole time steps, as sPyNNaker rounds them.
 
 With sPyNNaker's default 1 ms step every population is one application vertex on
 combined neuron-and-synapse cores (``PopulationVertex.use_combined_core``), split into
@@ -35,7 +39,7 @@ from neurovpr.connectors import AllToAllConnector, OneToOneConnector
 from neurovpr.network import Network, Projection
 
 from .hwspec import HwSpec, SpinnakerRules
-from .partition import CoreSlice, Partition, Violation, expand_on_chip
+from .partition import CoreSlice, Partition, Violation, delay_steps, expand_on_chip
 
 __all__ = ["partition_spinnaker", "n_bits"]
 
@@ -78,31 +82,59 @@ def _native(proj: Projection) -> bool:
 
     sPyNNaker's AllToAll/OneToOne connectors refuse per-synapse weight arrays, and random
     weights would be drawn by its own generator, so anything else is an explicit list.
+    sPyNNaker's all-to-all leaves ``i -> i`` out only from a population onto itself, so
+    an all-to-all without self-connections between two populations is a list too.
     """
+    conn = proj.connector
     delay = proj.synapse.delay
+    if isinstance(conn, AllToAllConnector) and not conn.allow_self_connections and proj.pre != proj.post:
+        return False
     return (
-        isinstance(proj.connector, (AllToAllConnector, OneToOneConnector))
+        isinstance(conn, (AllToAllConnector, OneToOneConnector))
         and isinstance(proj.synapse.weight, float)
         and (delay is None or isinstance(delay, float))
     )
 
 
+def _rounded_ms(delay_ms: float, step: float) -> float:
+    """A delay rounded to whole steps of at least one (sPyNNaker's ``_round_delay``)."""
+    return max(1.0, float(np.rint(delay_ms / step))) * step
+
+
+def _signed_parts(network: Network, proj: Projection, weight: np.ndarray, spec: HwSpec) -> list[np.ndarray]:
+    """Masks of the sPyNNaker projections one listed projection becomes.
+
+    With unsigned synaptic weights, a projection onto the excitatory receptor of a
+    current-based population whose weights have both signs is two projections: the
+    non-negative weights, and the negative ones onto the inhibitory receptor.
+    """
+    every = np.ones(weight.size, dtype=bool)
+    signed = spec.formats.weight_signed
+    current = not network.populations[proj.post].cell_type.conductance_based
+    if signed or proj.receptor_type != "excitatory" or not current or not weight.size:
+        return [every]
+    if weight.min() >= 0 or weight.max() < 0:
+        return [every]
+    return [weight >= 0, weight < 0]
+
+
 def _longest_delay(network: Network, proj: Projection, spec: HwSpec, seed: int) -> float:
-    """The longest delay of ``proj`` in ms (``None`` delays are one step)."""
+    """The longest delay of ``proj`` in ms, in whole steps (``None`` delays are one step)."""
     from neurovpr.connectors import FromListConnector
 
     step = spec.timing.time_step_ms
     delay = proj.synapse.delay
     listed = isinstance(proj.connector, FromListConnector) and proj.connector.conn_list.shape[1] == 4
     if not listed and (delay is None or isinstance(delay, float)):
-        return step if delay is None else float(delay)
+        return step if delay is None else _rounded_ms(delay, step)
     conns = expand_on_chip(network, proj, spec, seed)
-    return float(conns.delay.max()) if len(conns) else step
+    return float(delay_steps(conns, step).max()) * step if len(conns) else step
 
 
 def _row_lengths(network: Network, proj: Projection, spec: HwSpec, seed: int, n_post_atoms: int,
-                 max_supported_ms: float) -> _Rows:
-    """Longest rows of ``proj`` onto a post core of ``n_post_atoms`` (``get_max_row_info``).
+                 max_supported_ms: float) -> list[_Rows]:
+    """Longest rows onto a post core of ``n_post_atoms`` (``get_max_row_info``) of each
+    sPyNNaker projection ``proj`` becomes (two for a list of signed currents).
 
     Synapses with delays up to ``max_supported_ms`` go to the undelayed matrix, the others
     to the delay-extension matrix. Explicit lists are counted per (source, post core) as
@@ -110,14 +142,18 @@ def _row_lengths(network: Network, proj: Projection, spec: HwSpec, seed: int, n_
     """
     step = spec.timing.time_step_ms
     if _native(proj):
-        delay = proj.synapse.delay if proj.synapse.delay is not None else step
+        delay = _rounded_ms(proj.synapse.delay, step) if proj.synapse.delay is not None else step
         n = n_post_atoms if isinstance(proj.connector, AllToAllConnector) else 1
-        return _Rows(undelayed=n, delayed=0) if delay <= max_supported_ms else _Rows(undelayed=0, delayed=n)
+        return [_Rows(undelayed=n, delayed=0) if delay <= max_supported_ms else _Rows(undelayed=0, delayed=n)]
     conns = expand_on_chip(network, proj, spec, seed)
-    rows = []
-    for mask in (conns.delay <= max_supported_ms, conns.delay > max_supported_ms):
-        rows.append(_list_row_max(conns.pre[mask], conns.post[mask] // n_post_atoms) if mask.any() else 0)
-    return _Rows(undelayed=rows[0], delayed=rows[1])
+    delay = delay_steps(conns, step) * step
+    out = []
+    for part in _signed_parts(network, proj, conns.weight, spec):
+        rows = []
+        for mask in (part & (delay <= max_supported_ms), part & (delay > max_supported_ms)):
+            rows.append(_list_row_max(conns.pre[mask], conns.post[mask] // n_post_atoms) if mask.any() else 0)
+        out.append(_Rows(undelayed=rows[0], delayed=rows[1]))
+    return out
 
 
 def _group(values: np.ndarray, order_by: np.ndarray) -> list[np.ndarray]:
@@ -283,10 +319,11 @@ def partition_spinnaker(network: Network, spec: HwSpec, *, seed: int = 0) -> Par
                                       leave=False, disable=len(plan) < 20):
         address = rules.matrix_base_bytes
         for proj, _ in projs:
-            rows = _row_lengths(network, proj, spec, seed, max_atoms[name], max_ms)
             n_sub = max_atoms[proj.pre]
             n_edges = -(-pops[proj.pre].size // n_sub)
-            for n_syn, n_stage in ((rows.undelayed, 1), (rows.delayed, delay_pre.get(proj.pre, 0))):
+            stages = delay_pre.get(proj.pre, 0)
+            parts = _row_lengths(network, proj, spec, seed, max_atoms[name], max_ms)
+            for n_syn, n_stage in [pair for r in parts for pair in ((r.undelayed, 1), (r.delayed, stages))]:
                 words = _row_words(n_syn, proj.plastic, rules)
                 if words > rules.max_row_words:
                     violations.append(

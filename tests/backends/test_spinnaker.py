@@ -12,6 +12,7 @@ from neurovpr.backends import spinnaker
 from neurovpr.backends.spinnaker.capabilities import RUN_REFUSAL
 from neurovpr.connectivity import expand
 from neurovpr.errors import SimulationError, UnsupportedFeatureError, ValidationError
+from neurovpr.hardware import check_network
 
 BACKEND = spinnaker.BACKEND
 
@@ -79,6 +80,70 @@ def test_mapping_of_a_small_network(spynnaker_available, private_home) -> None:
     assert all(r["sdram_bytes"] > 0 and 1 <= r["p"] <= 17 for r in rows)
 
 
+def _signed_convolution() -> nv.Network:
+    """A small LoCS-Net: a signed 3x3 convolution and a signed dense layer of current-based LIF."""
+    rng = np.random.default_rng(5)
+    net = nv.Network("conv_small")
+    net.add_population("input", 12 * 12, nv.SpikeSourcePoisson(rate=20.0))
+    conv = nv.ConvolutionConnector(input_shape=(1, 12, 12), kernel_shape=(3, 3), out_channels=4, stride=(2, 2))
+    net.add_population("conv", int(np.prod(conv.output_shape)), nv.IF_curr_exp())
+    net.connect("input", "conv", conv, nv.StaticSynapse(weight=rng.normal(0.2, 0.3, size=conv.weight_shape)))
+    net.add_population("places", 300, nv.IF_curr_exp())
+    net.connect(
+        "conv",
+        "places",
+        nv.AllToAllConnector(),
+        nv.StaticSynapse(weight=rng.normal(0.0, 0.1, size=(net.populations["conv"].size, 300))),
+    )
+    return net
+
+
+def _delayed() -> nv.Network:
+    """Long delays (delay-extension cores), random and scalar, onto a population of two cores."""
+    net = nv.Network("delayed")
+    net.add_population("src", 600, nv.SpikeSourcePoisson(rate=5.0))
+    net.add_population("a", 300, nv.IF_cond_exp())
+    net.add_population("b", 40, nv.IF_curr_exp())
+    net.connect(
+        "src",
+        "a",
+        nv.FixedProbabilityConnector(p_connect=0.05),
+        nv.StaticSynapse(weight=0.01, delay=nv.Uniform(low=1.0, high=60.0)),
+    )
+    net.connect("a", "b", nv.AllToAllConnector(), nv.StaticSynapse(weight=0.2, delay=40.0))
+    net.connect(
+        "b", "b", nv.AllToAllConnector(allow_self_connections=False), nv.StaticSynapse(weight=0.1), receptor_type="inhibitory"
+    )
+    return net
+
+
+@pytest.mark.parametrize("build", [_mushroom_body, _signed_convolution, _delayed], ids=["mb", "conv", "delayed"])
+def test_fit_check_counts_equal_spynnaker_mapping(spynnaker_available, build) -> None:
+    """``check_network(net, "spinn5")`` and sPyNNaker's mapping agree core by core."""
+    net = build()
+    mapped = spinnaker.mapping.map_network(net, dt=1.0, seed=3)
+    report = check_network(net, "spinn5", seed=3)
+    assert report.fits
+    out = report.as_dict()
+    assert (out["chips"], out["cores"]) == (mapped["chips"], mapped["cores"])
+    theirs = [
+        (
+            f"{r['population']}:delays" if r["kind"] == "delays" else r["population"],
+            r["lo_atom"],
+            r["hi_atom"],
+            r["x"],
+            r["y"],
+            r["p"],
+            r["synaptic_matrix_bytes"],
+        )
+        for r in mapped["placements"]
+    ]
+    mine = [(c.population, c.lo, c.hi - 1, *c.location, c.usage.get("synaptic_matrix_bytes")) for c in report.partition.cores]
+    assert mine == theirs
+    kinds = {r["kind"] for r in mapped["placements"]}
+    assert ("delays" in kinds) == (build is _delayed)
+
+
 def test_run_is_refused_but_connections_and_weights_are_there(spynnaker_available) -> None:
     net = _mushroom_body(n_kc=100)
     sim = BACKEND.compile(net, dt=1.0, seed=2)
@@ -131,3 +196,36 @@ def test_unmappable_features_are_refused_by_name(build, words) -> None:
             call()
         for word in words:
             assert word in str(err.value)
+
+
+def test_connector_rule_is_the_fit_checkers() -> None:
+    """sPyNNaker's own connectors exactly where they make the canonical synapses, as the checker assumes."""
+    from neurovpr.backends.spinnaker.translation import signed_parts, uses_native_connector
+    from neurovpr.hardware.spinnaker import _native
+
+    net = nv.Network("rule")
+    net.add_population("s", 4, nv.SpikeSourcePoisson(rate=1.0))
+    net.add_population("a", 4, nv.IF_curr_exp())
+    net.add_population("g", 4, nv.IF_cond_exp())
+    cases = {
+        "all": (nv.AllToAllConnector(), nv.StaticSynapse(weight=0.1, delay=2.0), "s", "a", True),
+        "one": (nv.OneToOneConnector(), nv.STDPMechanism(weight=0.1), "s", "a", True),
+        "self": (nv.AllToAllConnector(allow_self_connections=False), nv.StaticSynapse(weight=0.1), "a", "a", True),
+        "cross": (nv.AllToAllConnector(allow_self_connections=False), nv.StaticSynapse(weight=0.1), "a", "g", False),
+        "array": (nv.AllToAllConnector(), nv.StaticSynapse(weight=np.full((4, 4), 0.1)), "s", "a", False),
+        "random_weight": (nv.OneToOneConnector(), nv.StaticSynapse(weight=nv.Uniform(low=0.0, high=1.0)), "s", "a", False),
+        "delays": (nv.OneToOneConnector(), nv.StaticSynapse(weight=0.1, delay=np.arange(1.0, 5.0)), "s", "a", False),
+        "fixed_p": (nv.FixedProbabilityConnector(p_connect=1.0), nv.StaticSynapse(weight=0.1), "s", "a", False),
+        "fixed_n": (nv.FixedNumberPreConnector(n=4), nv.StaticSynapse(weight=0.1), "s", "a", False),
+    }
+    for name, (conn, syn, pre, post, native) in cases.items():
+        proj = net.connect(pre, post, conn, syn, name=name)
+        assert uses_native_connector(proj) is native, name
+        assert _native(proj) is native, name
+    plain = net.projections["all"]
+    assert [(m.tolist(), r) for m, r, _ in signed_parts(net, plain, np.array([0.1, -0.2]))] == [
+        ([True, False], "excitatory"),
+        ([False, True], "inhibitory"),
+    ]
+    assert [r for _, r, _ in signed_parts(net, plain, np.array([-0.1, -0.2]))] == ["inhibitory"]
+    assert [r for _, r, _ in signed_parts(net, plain, np.array([0.0, 0.2]))] == ["excitatory"]
