@@ -87,10 +87,11 @@ def train(backend: str, images: list[nv.SpikeSourceArray], epochs: int, seed: in
     before = sim.statistics()
     counts = []
     start, cpu_start = time.perf_counter(), time.process_time()
+    _, post = sim.connections("pixels->exc")
     for _ in range(epochs):
         for img in images:
-            w = sim.weights("pixels->exc")
-            sim.set_weights("pixels->exc", np.minimum(w * (78.0 / w.sum(axis=0)), 1.0))
+            w = sim.weights("pixels->exc", format="list")  # Diehl & Cook: inputs of each neuron sum to 78
+            sim.set_weights("pixels->exc", np.minimum(w * (78.0 / np.bincount(post, weights=w))[post], 1.0))
             sim.run(PRESENT_MS, inputs={"pixels": img})
             counts.append(sim.spike_counts("exc").copy())
             sim.reset()

@@ -62,6 +62,10 @@ from .translation import (
 
 NEVER = np.int64(2**62)
 
+#: Synaptic currents (nA) and conductances (uS) below this are set to 0: their effect on
+#: the membrane is below 1e-19 mV per step, far below double precision of v.
+FLUSH = 1e-18
+
 # Indices of the activity counters.
 ST_STEPS, ST_NEURON_UPDATES, ST_SPIKES, ST_SYN_EVENTS, ST_PLASTIC_UPDATES = range(5)
 
@@ -76,6 +80,12 @@ def uniform(rng: np.ndarray) -> float:
     rng[0] = x
     r = x * np.uint64(2685821657736338717)
     return float((r >> np.uint64(11)) + np.uint64(1)) * (1.0 / 9007199254740992.0)
+
+
+@njit(cache=True, inline="always")
+def _flush(x: float) -> float:
+    """``x``, or 0 when its magnitude is below ``FLUSH``."""
+    return x if abs(x) >= FLUSH else 0.0
 
 
 @njit(cache=True)
@@ -221,15 +231,18 @@ def run_steps(
                     - ica[i] * p[C_P21CA]
                     + p[C_I_OFFSET] * p[C_P20]
                 )
+            elif ie[i] == 0.0 and ii[i] == 0.0:  # no conductance: the leak alone (P22 = exp(-dt gL / cm))
+                v[i] = p[C_V_REST] + (v[i] - p[C_V_REST]) * p[C_P22] + p[C_I_OFFSET] * p[C_P20]
             else:
                 ge = ie[i] * p[C_FE]
                 gi = ii[i] * p[C_FI]
                 gt = p[C_GL] + ge + gi
                 v_inf = (p[C_GL] * p[C_V_REST] + ge * p[C_E_REV_E] + gi * p[C_E_REV_I] + p[C_I_OFFSET]) / gt
                 v[i] = v_inf + (v[i] - v_inf) * np.exp(-dt * gt / p[C_CM])
-            ie[i] *= p[C_P11E]
-            ii[i] *= p[C_P11I]
-            ica[i] *= p[C_P11CA]
+            # decay; values below FLUSH (1e-18 nA or uS, ~1e-20 mV per step) are exactly 0 from then on
+            ie[i] = _flush(ie[i] * p[C_P11E])
+            ii[i] = _flush(ii[i] * p[C_P11I])
+            ica[i] = _flush(ica[i] * p[C_P11CA])
             if plastic_on:
                 theta[i] *= p[C_THETA_DECAY]
             if v[i] >= p[C_V_THRESH] + theta[i] and refr[i] == 0:
