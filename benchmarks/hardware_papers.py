@@ -1,0 +1,90 @@
+"""Fit and energy of the three papers' models at their published sizes on every hwspec.
+
+Prints, for each model and each hardware target, whether it fits, the chips and cores
+the vendor-style partition needs, the violated limits, and the estimated energy of
+one inference from the activity of one reference-simulator run (random, untrained
+weights: indicative only). The networks are those of tests/hardware/hw_models.py:
+Modular SNN (one module and 123 modules = 3,072 Nordland places / 25), MBSNN (840
+PNs, 2 x 4000 KC compartments, 1 MBON) and LoCS-Net (56x56 -> 3x3 stride-2 convs of
+8/16/32 channels -> 3,072 places).
+
+Usage::
+
+    python benchmarks/hardware_papers.py [--json OUT]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+import neurovpr as nv
+from neurovpr.hardware import check_network, estimate_energy, known_hwspecs, read_activity, write_activity
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "hardware"))
+from hw_models import locsnet, mbsnn, modular_snn  # noqa: E402
+
+
+def _activity(name: str, net: nv.Network, folder: Path) -> dict:
+    """One inference on the reference simulator at 1 ms steps, saved and read back as activity."""
+    rng = np.random.default_rng(0)
+    if name.startswith("modular"):
+        duration = 350.0
+        inputs = {p: rng.uniform(0.0, 63.75, 784) for p in net.populations if p.endswith("pixels")}
+    elif name == "mbsnn":
+        duration, inputs = 100.0, {}
+    else:
+        duration, inputs = 100.0, {"input": rng.uniform(0.0, 100.0, 56 * 56)}
+    sim = nv.compile(net, backend="reference", dt=1.0, seed=1, record_spikes=())
+    sim.run(duration, inputs=inputs)
+    spikes = {p: int(sim.spike_counts(p).sum()) for p in net.populations}
+    write_activity(folder, sim.statistics(), 1, dt_ms=1.0, population_spikes=spikes)
+    return read_activity(folder)
+
+
+def main() -> None:
+    """Print the table."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--json", type=Path, default=None)
+    args = parser.parse_args()
+    models = {
+        "modular (1 module)": lambda: modular_snn(1, plastic=False),
+        "modular (123 modules)": lambda: modular_snn(123, plastic=False),
+        "mbsnn": mbsnn,
+        "locsnet": locsnet,
+    }
+    rows = []
+    for name, build in models.items():
+        net = build()
+        with tempfile.TemporaryDirectory() as tmp:
+            activity = _activity(name, net, Path(tmp))
+        for hw in known_hwspecs():
+            report = check_network(net, hw)
+            energy = estimate_energy(activity, hw, network=net, partition=report.partition)
+            d = report.as_dict()
+            rows.append(
+                {
+                    "model": name,
+                    "hardware": hw,
+                    "fits": d["fits"],
+                    "chips": d["chips"],
+                    "cores": d["cores"],
+                    "violations": [v if isinstance(v, str) else v.get("limit", str(v)) for v in d["violations"]],
+                    "joules_per_inference": energy.joules_per_inference,
+                }
+            )
+            print(
+                f"{name:22s} {hw:11s} fits={'yes' if d['fits'] else 'no ':3s} chips={d['chips']:3d} cores={d['cores']:4d}"
+                f" energy={energy.joules_per_inference:.4g} J  violations={len(d['violations'])}"
+            )
+    if args.json:
+        args.json.write_text(json.dumps(rows, indent=2, default=str))
+
+
+if __name__ == "__main__":
+    main()
