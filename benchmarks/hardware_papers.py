@@ -27,7 +27,7 @@ import neurovpr as nv
 from neurovpr.hardware import check_network, estimate_energy, known_hwspecs, read_activity, write_activity
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "hardware"))
-from hw_models import locsnet, mbsnn, modular_snn  # noqa: E402
+from hw_models import locsnet, mbsnn, modular_snn
 
 
 def _activity(name: str, net: nv.Network, folder: Path) -> dict:
