@@ -1,0 +1,232 @@
+"""The graph of one Modular SNN module (Hussaini, Milford & Fischer, IEEE T-RO 2024).
+
+A module is the three-layer network of Diehl & Cook (2015)::
+
+    pixels (784 Poisson sources, one per pixel of the 28x28 patch-normalised image)
+      --[all-to-all, DiehlCookSTDP, excitatory]--> exc (400 IF_cond_exp_adaptive)
+    exc --[one-to-one, W_EI = 10.4]--> inh (400 IF_cond_exp)
+    inh --[all-to-all but the partner, W_IE = 17.0, inhibitory]--> exc
+
+Units. The published code (QVPR/VPRSNN, ``non_modular_snn/snn_model.py``) writes the
+membrane equation as ``tau dv/dt = (v_rest - v) + g_E (E_exc - v) + g_I (E_inh - v)``
+with dimensionless conductances, i.e. conductances in units of the leak conductance.
+In PyNN units this is ``cm = tau_m`` (nF = ms, so ``g_leak = cm / tau_m = 1 uS``) and
+weights in uS; :func:`build_module` does exactly that.
+
+Parameters (defaults = the paper's Table and the published code where the paper is
+silent): tau_e 100 ms, E_rest,e -65 mV, tau_i 10 ms, E_rest,i -60 mV, E_exc 0 mV,
+E_inh,e -100 mV, E_inh,i -85 mV, tau_ge 1 ms, tau_gi 0.5 ms; theta_plus 0.05 mV,
+tau_theta 1e7 ms; eta_pre 1e-4, eta_post 1e-2, w_max 1, mu 1. From the published code:
+v_thresh,e -52 mV with theta starting at 0 (their theta starts at 20 mV and the
+threshold subtracts a 20 mV offset, which is the same threshold), v_reset,e -65 mV,
+refractory 5 ms (exc) and 2 ms (inh), v_reset,i -45 mV, v_thresh,i -40 mV, initial
+weights ``(U(0, 1) + 0.01) * 0.3`` = U(0.003, 0.303), input delays U(0, 10) ms (here
+U(dt_min, 10) with ``dt_min`` = 0.5 ms, the simulator's minimum delay at the default
+step; Brian2 rounds shorter delays to whole steps as well).
+
+Learning rule. ``stdp="paper"`` (default) is the paper's equation,
+``DiehlCookSTDP(eta_pre, eta_post, w_max, mu=1)``: depression ``eta_pre * x_post`` at a
+presynaptic spike, potentiation ``eta_post * x_pre * (w_max - w) ** mu`` at a
+postsynaptic spike. ``stdp="published"`` is the published code's triplet form,
+``DiehlCookSTDP(tau_post2=40, mu=0)``: potentiation ``eta_post * x_pre * x_post2``.
+Two details of that code are *not* reproduced and are stated here instead: its
+presynaptic term has a ``+`` sign (``w + nu_pre * post1``, potentiation), which the
+IR's ``DiehlCookSTDP`` (``eta_pre >= 0``, always a depression) cannot express; and its
+refractory timer grows at 0.1 ms per ms (``dtimer/dt = 0.1``), so an excitatory neuron
+cannot fire again for 50 ms although its membrane is only clamped for 5 ms. Set
+``refrac_e`` to change the refractory period.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+import neurovpr as nv
+
+__all__ = ["ModuleParameters", "build_module", "INPUT", "EXC", "INH", "INPUT_PROJECTION"]
+
+#: Population names of a module.
+INPUT, EXC, INH = "pixels", "exc", "inh"
+#: Name of the learned projection.
+INPUT_PROJECTION = f"{INPUT}->{EXC}"
+
+_STDP_FORMS = ("paper", "published")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ModuleParameters:
+    """Every parameter of one module's graph (defaults: see the module docstring)."""
+
+    n_input: int = 784
+    n_neurons: int = 400
+    # excitatory layer
+    tau_e: float = 100.0
+    v_rest_e: float = -65.0
+    v_reset_e: float = -65.0
+    v_thresh_e: float = -52.0
+    refrac_e: float = 5.0
+    e_exc: float = 0.0
+    e_inh_e: float = -100.0
+    theta_plus: float = 0.05
+    tau_theta: float = 1e7
+    # inhibitory layer
+    tau_i: float = 10.0
+    v_rest_i: float = -60.0
+    v_reset_i: float = -45.0
+    v_thresh_i: float = -40.0
+    refrac_i: float = 2.0
+    e_inh_i: float = -85.0
+    # synapses
+    tau_ge: float = 1.0
+    tau_gi: float = 0.5
+    w_ei: float = 10.4
+    w_ie: float = 17.0
+    w_init_low: float = 0.003
+    w_init_high: float = 0.303
+    delay_min: float = 0.5
+    delay_max: float = 10.0
+    # learning
+    stdp: str = "paper"
+    eta_pre: float = 1e-4
+    eta_post: float = 1e-2
+    w_max: float = 1.0
+    mu: float = 1.0
+    tau_pre: float = 20.0
+    tau_post: float = 20.0
+    tau_post2: float = 40.0
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            value = getattr(self, f.name)
+            if f.name == "stdp":
+                if value not in _STDP_FORMS:
+                    raise nv.ValidationError(f"ModuleParameters.stdp is {value!r}, expected one of {', '.join(_STDP_FORMS)}.")
+                continue
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+                raise nv.ValidationError(f"ModuleParameters.{f.name} must be a finite number, got {value!r}.")
+        for name in ("n_input", "n_neurons"):
+            value = getattr(self, name)
+            if int(value) != value or not 1 <= value <= 100_000:
+                raise nv.ValidationError(f"ModuleParameters.{name} is {value!r}, expected an integer in 1..100000.")
+        positive = ("tau_e", "tau_i", "tau_ge", "tau_gi", "tau_theta", "w_max", "tau_pre", "tau_post", "tau_post2")
+        for name in positive:
+            if getattr(self, name) <= 0:
+                raise nv.ValidationError(f"ModuleParameters.{name} must be > 0, got {getattr(self, name)!r}.")
+        nonneg = ("refrac_e", "refrac_i", "theta_plus", "w_ei", "w_ie", "eta_pre", "eta_post", "mu", "w_init_low")
+        for name in nonneg:
+            if getattr(self, name) < 0:
+                raise nv.ValidationError(f"ModuleParameters.{name} must be >= 0, got {getattr(self, name)!r}.")
+        if not self.w_init_low < self.w_init_high <= self.w_max:
+            raise nv.ValidationError(
+                f"ModuleParameters initial weights U({self.w_init_low}, {self.w_init_high}) must lie within "
+                f"[0, w_max={self.w_max}] with low < high."
+            )
+        if self.delay_max != 0 and not 0 < self.delay_min < self.delay_max:
+            raise nv.ValidationError(
+                f"ModuleParameters input delays U({self.delay_min}, {self.delay_max}) ms need 0 < delay_min < delay_max "
+                "(or delay_max = 0 for no delays)."
+            )
+
+    def replace(self, **changes: Any) -> ModuleParameters:
+        """A copy with some parameters changed (validated again)."""
+        return dataclasses.replace(self, **changes)
+
+    def as_dict(self) -> dict[str, Any]:
+        """A JSON-ready copy of every parameter."""
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: dict[str, Any]) -> ModuleParameters:
+        """Parameters from :meth:`as_dict` output; unknown keys are refused."""
+        if not isinstance(data, dict):
+            raise nv.ValidationError(f"module parameters must be a JSON object, got {type(data).__name__}.")
+        known = {f.name for f in dataclasses.fields(cls)}
+        unknown = sorted(set(data) - known)
+        if unknown:
+            raise nv.ValidationError(f"module parameters contain unknown key {unknown[0]!r}.")
+        return cls(**data)
+
+    def learning_rule(self, seed: int | None = None) -> nv.DiehlCookSTDP:
+        """The input projection's synapse: initial weights, delays and the chosen STDP form.
+
+        With ``seed``, the initial weights and delays are drawn here, from
+        ``numpy.random.default_rng([seed, 0])``, and stored in the graph as
+        ``(n_input, n_neurons)`` arrays, so a saved module keeps its delays whatever
+        seed it is compiled with later. Without it they are distributions that
+        ``nv.compile`` resolves with its own seed.
+        """
+        delay: Any = None
+        if seed is None:
+            weight: Any = nv.Uniform(low=self.w_init_low, high=self.w_init_high)
+            if self.delay_max > 0:
+                delay = nv.Uniform(low=self.delay_min, high=self.delay_max)
+        else:
+            rng = np.random.default_rng([int(seed), 0])
+            shape = (self.n_input, self.n_neurons)
+            weight = rng.uniform(self.w_init_low, self.w_init_high, size=shape)
+            if self.delay_max > 0:
+                delay = rng.uniform(self.delay_min, self.delay_max, size=shape)
+        common = {
+            "weight": weight,
+            "delay": delay,
+            "eta_pre": self.eta_pre,
+            "eta_post": self.eta_post,
+            "w_max": self.w_max,
+            "tau_pre": self.tau_pre,
+            "tau_post": self.tau_post,
+        }
+        if self.stdp == "published":
+            return nv.DiehlCookSTDP(mu=0.0, tau_post2=self.tau_post2, **common)
+        return nv.DiehlCookSTDP(mu=self.mu, **common)
+
+
+def build_module(
+    params: ModuleParameters | None = None,
+    *,
+    seed: int | None = None,
+    name: str = "modular_snn_module",
+    v_init_e: float | None = None,
+    v_init_i: float | None = None,
+) -> nv.Network:
+    """The graph of one module.
+
+    Parameters
+    ----------
+    params
+        The parameters (paper defaults when omitted).
+    seed
+        Draw the initial input weights and delays now (see
+        :meth:`ModuleParameters.learning_rule`); ``None`` leaves them to ``nv.compile``.
+    name
+        Network name.
+    v_init_e, v_init_i
+        Initial membrane potentials (default: the resting potentials). The published
+        code starts both layers 40 mV below rest; with ``reset()`` between images the
+        resting potential is the right starting point (see :mod:`.training`).
+    """
+    p = params or ModuleParameters()
+    net = nv.Network(name)
+    net.add_population(INPUT, p.n_input, nv.SpikeSourcePoisson(rate=0.0))
+    exc = nv.IF_cond_exp_adaptive(
+        cm=p.tau_e, tau_m=p.tau_e, v_rest=p.v_rest_e, v_reset=p.v_reset_e, v_thresh=p.v_thresh_e,
+        tau_refrac=p.refrac_e, tau_syn_E=p.tau_ge, tau_syn_I=p.tau_gi, e_rev_E=p.e_exc, e_rev_I=p.e_inh_e,
+        theta_plus=p.theta_plus, tau_theta=p.tau_theta, theta_init=0.0,
+    )  # fmt: skip
+    inh = nv.IF_cond_exp(
+        cm=p.tau_i, tau_m=p.tau_i, v_rest=p.v_rest_i, v_reset=p.v_reset_i, v_thresh=p.v_thresh_i,
+        tau_refrac=p.refrac_i, tau_syn_E=p.tau_ge, tau_syn_I=p.tau_gi, e_rev_E=p.e_exc, e_rev_I=p.e_inh_i,
+    )  # fmt: skip
+    net.add_population(EXC, p.n_neurons, exc, v_init=v_init_e)
+    net.add_population(INH, p.n_neurons, inh, v_init=v_init_i)
+    net.connect(INPUT, EXC, nv.AllToAllConnector(), p.learning_rule(seed), receptor_type="excitatory")
+    net.connect(EXC, INH, nv.OneToOneConnector(), nv.StaticSynapse(weight=p.w_ei), receptor_type="excitatory")
+    net.connect(
+        INH, EXC, nv.AllToAllConnector(allow_self_connections=False), nv.StaticSynapse(weight=p.w_ie),
+        receptor_type="inhibitory", name="lateral",
+    )  # fmt: skip
+    return net

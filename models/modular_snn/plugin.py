@@ -1,0 +1,350 @@
+"""``neurovpr train/eval --model modular``: the command-line face of the Modular SNN.
+
+``train`` reads a dataset (generic or published layout), preprocesses the reference
+traverse (28x28, patch-normalised), trains every module of every ensemble member in
+parallel (local processes, or Dask with ``--scheduler``) into ``RUN_DIR`` and writes
+``run.json``. ``eval`` shows the query traverse to every module (cached in the run),
+builds the members' and the ensemble's similarity and distance matrices, applies
+sequence matching of length ``--seq-len`` (Eq. 13, identity kernel, ``valid`` mode),
+and reports Recall@N, precision at 100% recall and the PR AUC next to SAD and Perfect
+Memory on the same images, as JSON plus PNG plots in ``RUN_DIR/eval`` (or ``--report``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import io
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import neurovpr as nv
+from neurovpr.data.encoding import RateCoding
+from neurovpr.fileio import atomic_write_text
+from neurovpr.modelapi import ModelPlugin, read_run_info
+
+from .network import ModuleParameters
+from .parallel import default_workers
+from .report import evaluate_similarities, write_plots
+from .runs import describe_plan, member_similarities, query_responses, reference_digest, train_run
+from .training import TrainingSettings
+
+__all__ = ["ModularSNNPlugin", "load_traverse"]
+
+_TRAIN_DEFAULTS: dict[str, Any] = {
+    "members": 1,
+    "epochs": 30,
+    "module_size": 25,
+    "neurons": 400,
+    "places": None,
+    "workers": None,
+    "max_modules": None,
+    "stdp": "paper",
+    "hyperactive": "spikes",
+    "theta": None,
+    "place_score": "sum",
+    "place_order": "route",
+    "dt": 0.5,
+    "simulate_rest": False,
+    "no_progress": False,
+}
+_EVAL_DEFAULTS: dict[str, Any] = {"members_used": None, "workers": None, "report": None, "no_progress": False}
+
+
+def _add(parser: argparse._ActionsContainer, *flags: str, **kwargs: Any) -> None:
+    """Add an option unless another model already declared the same flag (then it is shared)."""
+    try:
+        parser.add_argument(*flags, default=argparse.SUPPRESS, **kwargs)
+    except argparse.ArgumentError:
+        pass
+
+
+def _opt(args: argparse.Namespace, name: str, defaults: dict[str, Any]) -> Any:
+    value = getattr(args, name, None)
+    return defaults[name] if value is None else value
+
+
+def load_traverse(path: str | Path, places: int | None = None) -> Any:
+    """Open a dataset and keep its first ``places`` reference places (and as many queries)."""
+    from neurovpr.data.generic import open_traverse
+
+    traverse = open_traverse(path)
+    if places is None:
+        return traverse
+    n = int(places)
+    if not 1 <= n <= traverse.n_reference:
+        raise nv.ValidationError(f"--places is {n}, but {path} has {traverse.n_reference} reference places.")
+    return traverse.subset(slice(0, n), slice(0, min(n, traverse.n_query)))
+
+
+class ModularSNNPlugin(ModelPlugin):
+    """Modular SNN / Ensembles of Modular SNNs (Hussaini, Milford & Fischer, T-RO 2024)."""
+
+    name = "modular"
+    description = "Modular SNN and Ensembles of Modular SNNs (Hussaini et al., T-RO 2024)"
+
+    def add_train_arguments(self, parser: argparse.ArgumentParser) -> None:
+        """Model options of ``neurovpr train`` (defaults: the paper)."""
+        _add(parser, "--members", type=int, help="ensemble size M (default 1: one modular SNN)")
+        _add(parser, "--epochs", type=int, help="training epochs per module (default 30)")
+        _add(parser, "--module-size", type=int, help="places per module (default 25)")
+        _add(parser, "--neurons", type=int, help="excitatory (and inhibitory) neurons per module (default 400)")
+        _add(parser, "--places", type=int, help="use only the first N reference places (default all)")
+        _add(parser, "--workers", type=int, help="local worker processes (default: the CPU cores)")
+        _add(parser, "--max-modules", type=int, help="train at most N unfinished modules, then stop (continue with --resume)")
+        _add(parser, "--stdp", choices=("paper", "published"), help="learning rule form (default paper)")
+        _add(parser, "--hyperactive", choices=("spikes", "images"), help="hyperactive activity measure (default spikes)")
+        _add(parser, "--theta", type=float, help="fixed hyperactive threshold (default: drawn per member)")
+        _add(parser, "--place-score", choices=("sum", "mean"), help="place score of assigned neurons (default sum)")
+        _add(parser, "--place-order", choices=("route", "shuffled"), help="how places are cut into modules (default route)")
+        _add(parser, "--dt", type=float, help="time step in ms (default 0.5)")
+        _add(parser, "--simulate-rest", action="store_true", help="simulate the 150 ms rest instead of reset()")
+        _add(parser, "--no-progress", action="store_true", help="no progress bars")
+
+    def add_eval_arguments(self, parser: argparse.ArgumentParser) -> None:
+        """Model options of ``neurovpr eval``."""
+        _add(parser, "--members-used", type=int, help="evaluate the first K ensemble members only (default all)")
+        _add(parser, "--workers", type=int, help="local worker processes (default: the CPU cores)")
+        _add(parser, "--report", type=Path, help="folder for results JSON and PNGs (default RUN_DIR/eval)")
+        _add(parser, "--no-progress", action="store_true", help="no progress bars")
+
+    # ------------------------------------------------------------------ train
+    def train(self, args: argparse.Namespace) -> dict[str, Any]:
+        """Train into ``args.out`` (see the module docstring)."""
+        opt = {k: _opt(args, k, _TRAIN_DEFAULTS) for k in _TRAIN_DEFAULTS}
+        backend = str(args.backend)
+        chosen = nv.get_backend(backend)
+        if not chosen.capabilities.learns:
+            raise nv.UnsupportedFeatureError(f"backend {backend!r} does not learn on-line, so it cannot train the Modular SNN.")
+        workers = int(opt["workers"] or default_workers())
+        if workers < 1:
+            raise nv.ValidationError(f"--workers is {workers}, expected at least 1.")
+        params = ModuleParameters(stdp=opt["stdp"], n_neurons=int(opt["neurons"]))
+        settings = TrainingSettings(
+            params=params,
+            coding=RateCoding(),
+            epochs=int(opt["epochs"]),
+            module_size=int(opt["module_size"]),
+            dt=float(opt["dt"]),
+            simulate_rest=bool(opt["simulate_rest"]),
+            backend=backend,
+        )
+        chosen.check_network(settings.network("modular_snn_module"))
+        traverse = load_traverse(args.data, opt["places"])
+        if len(traverse.references) > 1:
+            print(
+                f"note: {traverse.name} has {len(traverse.references)} reference traverses; this model trains on the "
+                f"first ({traverse.reference.name}) only.",
+                file=sys.stderr,
+            )
+        reference = traverse.reference.preprocessed(progress=not opt["no_progress"])
+        note = describe_plan(len(reference), settings.module_size)
+        if len(reference) % settings.module_size:
+            print(f"note: {note}.", file=sys.stderr)
+        info = {"data": str(Path(args.data).resolve()), "places": opt["places"], "dataset": traverse.name}
+        summary = train_run(
+            args.out,
+            reference,
+            settings,
+            members=int(opt["members"]),
+            seed=int(args.seed),
+            place_order=opt["place_order"],
+            hyperactive=opt["hyperactive"],
+            theta=opt["theta"],
+            score=opt["place_score"],
+            workers=workers,
+            scheduler=getattr(args, "scheduler", None),
+            resume=bool(getattr(args, "resume", False)),
+            max_modules=opt["max_modules"],
+            info=info,
+            progress=not opt["no_progress"],
+        )
+        return {"model": self.name, "backend": backend, **summary}
+
+    # ------------------------------------------------------------------- eval
+    def evaluate(self, args: argparse.Namespace, run_info: dict[str, Any]) -> dict[str, Any]:
+        """Evaluate the run in ``args.run`` (see the module docstring)."""
+        opt = {k: _opt(args, k, _EVAL_DEFAULTS) for k in _EVAL_DEFAULTS}
+        run_dir = Path(args.run)
+        if run_info.get("format") != "neurovpr-modular-snn-run/1":
+            raise nv.ValidationError(f"{run_dir}/run.json is not a complete Modular SNN run (format {run_info.get('format')!r}).")
+        backend = getattr(args, "backend", None) or run_info["backend"]
+        data = getattr(args, "data", None) or run_info.get("data")
+        if not data:
+            raise nv.ValidationError(f"{run_dir}/run.json names no dataset; pass --data.")
+        traverse = load_traverse(data, run_info.get("places"))
+        if traverse.n_reference != int(run_info["n_reference"]):
+            raise nv.ValidationError(
+                f"{data} has {traverse.n_reference} reference places but the run was trained on {run_info['n_reference']}."
+            )
+        progress = not opt["no_progress"]
+        reference = traverse.reference.preprocessed(progress=progress)
+        if reference_digest(reference) != run_info.get("reference_digest"):
+            raise nv.ValidationError(f"the reference images of {data} differ from those the run in {run_dir} was trained on.")
+        query = traverse.query.preprocessed(progress=progress)
+        n_members = int(run_info["members"])
+        used = n_members if opt["members_used"] is None else int(opt["members_used"])
+        if not 1 <= used <= n_members:
+            raise nv.ValidationError(f"--members-used is {used}, but the run has {n_members} member(s).")
+        seq_len = int(getattr(args, "seq_len", 1) or 1)
+        workers = int(opt["workers"] or default_workers())
+        counts = query_responses(
+            run_dir, run_info, query, backend=backend, workers=workers, scheduler=getattr(args, "scheduler", None),
+            progress=progress,
+        )  # fmt: skip
+        sims = member_similarities(run_dir, run_info, counts, members=range(used))
+        result = evaluate_similarities(sims, reference, query, traverse.ground_truth, seq_lens=(seq_len,))
+        level = result["by_seq_len"][str(seq_len)]
+        report_dir = Path(opt["report"]) if opt["report"] is not None else run_dir / "eval"
+        files = write_plots(result, report_dir, seq_len, tag=f"{backend}_L{seq_len}")
+        out = {
+            "model": self.name,
+            "backend": backend,
+            "data": str(data),
+            "seq_len": seq_len,
+            "ensemble_size": used,
+            "metrics": level["ensemble"] if used > 1 else level["members"][0],
+            "modular_snn": level["members"][0],
+            "members": level["members"],
+            "mean_of_members": level["mean_of_members"],
+            "baselines": level["baselines"],
+            "plan": run_info.get("plan"),
+            "files": {k: str(v) for k, v in files.items()},
+        }
+        json_path = report_dir / f"results_{backend}_L{seq_len}.json"
+        out["files"]["json"] = str(json_path)
+        atomic_write_text(json_path, json.dumps(out, indent=1))
+        return out
+
+    # ------------------------------------------------------------------ infer
+    def infer(self, run_dir: Path, data: Path | None, backend: str, *, seed: int = 0) -> dict[str, Any]:
+        """Run every learned module of ``run_dir`` on ``backend`` over the query set of ``data`` (``neurovpr compare``).
+
+        The learned weights and thresholds run with plasticity off: on a backend that
+        learns, the stored networks as ``eval`` runs them; on one that does not, the
+        learned STDP projections deployed as static synapses. Before any query, a
+        backend that cannot run the module (its conductance-based, adaptive-threshold
+        neurons on Nengo or Lava) refuses it with
+        :class:`~neurovpr.errors.UnsupportedFeatureError` naming the feature. ``seed``
+        0 gives the Poisson input of ``eval``. The prediction of a query is the
+        ensemble's most similar place; the output counts are the excitatory spike
+        counts of every module side by side ``(queries, modules x neurons)``;
+        ``seconds_per_query`` is the simulation time of all modules for one query.
+        """
+        from neurovpr.evaluation.metrics import distance_from_similarity, evaluate
+
+        from .inference import ensemble_similarity
+        from .parallel import run_jobs
+        from .report import N_VALUES
+        from .training import derive_seed
+
+        run_dir = Path(run_dir)
+        run_info = read_run_info(run_dir)
+        if run_info.get("format") != "neurovpr-modular-snn-run/1":
+            raise nv.ValidationError(f"{run_dir}/run.json is not a complete Modular SNN run (format {run_info.get('format')!r}).")
+        chosen = nv.get_backend(backend)
+        learns = chosen.capabilities.learns
+        modules = run_info.get("modules") or []
+        if not modules:
+            raise nv.ValidationError(f"{run_dir}/run.json lists no modules; was the run complete?")
+        first = _module_network(run_dir, modules[0]["name"])
+        chosen.check_network(first if learns else _deployed(first))
+        data = data or run_info.get("data")
+        if not data:
+            raise nv.ValidationError(f"{run_dir}/run.json names no dataset; pass --data.")
+        traverse = load_traverse(data, run_info.get("places"))
+        if traverse.n_reference != int(run_info["n_reference"]):
+            raise nv.ValidationError(
+                f"{data} has {traverse.n_reference} reference places but the run was trained on {run_info['n_reference']}."
+            )
+        reference = traverse.reference.preprocessed(progress=True)
+        if reference_digest(reference) != run_info.get("reference_digest"):
+            raise nv.ValidationError(f"the reference images of {data} differ from those the run in {run_dir} was trained on.")
+        query = traverse.query.preprocessed(progress=True)
+        images = np.ascontiguousarray(np.asarray(query, dtype=np.uint8).reshape(len(query), -1))
+        cfg = json.dumps(TrainingSettings.from_dict(run_info["settings"]).as_dict(), sort_keys=True)
+        jobs = []
+        for mod in modules:
+            net_bytes = (run_dir / "modules" / f"{mod['name']}.h5").read_bytes()
+            job_seed = derive_seed(int(mod["seed"]), 2) if seed == 0 else derive_seed(int(mod["seed"]), 2, int(seed))
+            jobs.append((cfg, backend, net_bytes, job_seed, learns))
+        results: dict[int, dict[str, Any]] = {}
+
+        def keep(index: int, result: bytes) -> None:
+            with np.load(io.BytesIO(result), allow_pickle=False) as npz:
+                results[index] = {k: npz[k] for k in npz.files}
+
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=len(jobs), desc=f"compare modules ({backend})", unit="module", leave=False)
+        try:
+            run_jobs(_infer_job, images, jobs, keep, workers=default_workers(), progress=bar)
+        finally:
+            bar.close()
+        counts = {str(mod["name"]): results[i]["counts"] for i, mod in enumerate(modules)}
+        sims = member_similarities(run_dir, run_info, counts)
+        similarity = ensemble_similarity(sims)
+        metrics = evaluate(distance_from_similarity(similarity), traverse.ground_truth, n_values=N_VALUES)
+        n_q = len(query)
+        stats = [results[i]["stats"] for i in range(len(modules))]
+        keys = [str(k) for k in results[0]["stat_keys"]]
+        totals = np.sum(stats, axis=0)
+        activity = {k: float(v) / n_q for k, v in zip(keys, totals, strict=True)}
+        activity["dt_ms"] = float(json.loads(cfg)["dt"])
+        return {
+            "metrics": metrics,
+            "predictions": np.argmax(similarity, axis=0).astype(np.int64),
+            "output_counts": np.concatenate([counts[str(m["name"])] for m in modules], axis=1),
+            "seconds_per_query": float(sum(float(results[i]["seconds"]) for i in range(len(modules))) / n_q),
+            "activity": activity,
+        }
+
+
+def _module_network(run_dir: Path, name: str) -> nv.Network:
+    path = Path(run_dir) / "modules" / f"{name}.h5"
+    if not path.is_file():
+        raise nv.ValidationError(f"{path} is missing; the run directory is incomplete.")
+    return nv.load(path)
+
+
+def _deployed(network: nv.Network) -> nv.Network:
+    """The learned module with every plastic projection fixed at its learned weights (static synapses)."""
+    out = network.copy()
+    for proj in network.projections.values():
+        if not isinstance(proj.synapse, nv.StaticSynapse):
+            syn = proj.synapse
+            out.replace_projection(proj.replace(synapse=nv.StaticSynapse(weight=syn.weight, delay=syn.delay)))
+    return out
+
+
+def _infer_job(images: np.ndarray, settings: str, backend: str, network: bytes, seed: int, learns: bool) -> bytes:
+    """One module's responses to every query, its activity counts and its time, as ``.npz`` bytes (runs in a worker)."""
+    import time
+
+    from .parallel import _network_from_bytes, npz_bytes
+    from .training import Presenter, record_responses
+
+    cfg = TrainingSettings.from_dict(json.loads(settings))
+    net = _network_from_bytes(network)
+    sim = nv.compile(net if learns else _deployed(net), backend=backend, dt=cfg.dt, seed=int(seed))
+    try:
+        sim.plasticity(False)
+        before = sim.statistics()
+        start = time.perf_counter()
+        counts = record_responses(Presenter(sim, cfg), images)
+        seconds = time.perf_counter() - start
+        after = sim.statistics()
+    finally:
+        close = getattr(sim, "close", None)
+        if close is not None:
+            close()
+    keys = ("steps", "neuron_updates", "spikes", "synaptic_events", "plastic_updates")
+    stats = np.array([float(after.get(k, 0) - before.get(k, 0)) for k in keys])
+    return npz_bytes(counts=counts, stats=stats, stat_keys=np.array(keys), seconds=np.float64(seconds))
+
+
+#: The plugin instance named by the ``neurovpr.models`` entry point.
+MODEL = ModularSNNPlugin()

@@ -1,0 +1,378 @@
+"""A Modular SNN run directory: plan, training with resume, query responses, similarities.
+
+Layout of ``RUN_DIR``::
+
+    run.json                      written last, when every module is trained
+    modules/m00_k000.h5           learned network of member 0, module 0 (nv.save)
+    modules/m00_k000.npz          its record (places, responses, counts, seed, timing)
+    query/<backend>/m00_k000.npz  cached query responses (eval), keyed by the query data
+
+Plan. The ``R`` reference places are cut into modules of ``module_size`` consecutive
+places (``place_order="route"``), or of consecutive places of a permutation drawn per
+member (``"shuffled"``, as VPRSNN's shuffled place order); when ``R`` is not a multiple
+of ``module_size`` the remainder forms a last, smaller module. Each of the ``M``
+members has its own modules; module ``k`` of member ``m`` is seeded with
+``derive_seed(seed, m, 0, k)`` (initial weights, delays, Poisson spikes, presentation
+order), member ``m``'s place permutation and hyperactive threshold theta with
+``derive_seed(seed, m, 1)``.
+
+Resume. A module counts as finished when its ``.npz`` record exists (it is written
+after the network file, both atomically) and carries the fingerprint of the same job
+(settings, data, places, seed); a record with another fingerprint is refused rather
+than mixed in. Because every module depends only on its own seed, a resumed run gives
+bit-identical files and results to an uninterrupted one on the same backend and machine.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+import neurovpr as nv
+from neurovpr.fileio import atomic_write_bytes, atomic_write_text
+
+from .inference import (
+    assign_neurons,
+    draw_hyperactive_threshold,
+    fuse_modules,
+    hyperactive_neurons,
+    module_similarity,
+)
+from .parallel import npz_bytes, query_job, read_npz, run_jobs, train_job
+from .training import TrainingSettings, derive_seed
+
+__all__ = [
+    "ModulePlan",
+    "make_plan",
+    "describe_plan",
+    "reference_digest",
+    "train_run",
+    "query_responses",
+    "member_similarities",
+    "RUN_FORMAT",
+]
+
+#: ``run.json`` format tag of this model.
+RUN_FORMAT = "neurovpr-modular-snn-run/1"
+PLACE_ORDERS = ("route", "shuffled")
+
+
+@dataclass(frozen=True, slots=True)
+class ModulePlan:
+    """One module job: which member and module, its name, places and seed."""
+
+    member: int
+    module: int
+    places: np.ndarray
+    seed: int
+
+    @property
+    def name(self) -> str:
+        """File stem, ``m<member>_k<module>``."""
+        return f"m{self.member:02d}_k{self.module:03d}"
+
+
+def make_plan(n_places: int, module_size: int, members: int, seed: int, place_order: str = "route") -> list[ModulePlan]:
+    """Every module of every member, member-major."""
+    if int(n_places) < 1:
+        raise nv.ValidationError(f"the reference set has {n_places} places, expected at least 1.")
+    if not 1 <= int(members) <= 100:
+        raise nv.ValidationError(f"ensemble size is {members}, expected 1..100 members.")
+    if place_order not in PLACE_ORDERS:
+        raise nv.ValidationError(f"place order is {place_order!r}, expected one of {', '.join(PLACE_ORDERS)}.")
+    plan = []
+    for m in range(int(members)):
+        order = np.arange(n_places)
+        if place_order == "shuffled":
+            order = np.random.default_rng(derive_seed(seed, m, 1)).permutation(n_places)
+        for k, start in enumerate(range(0, n_places, module_size)):
+            places = np.sort(order[start : start + module_size])
+            plan.append(ModulePlan(member=m, module=k, places=places, seed=derive_seed(seed, m, 0, k)))
+    return plan
+
+
+def describe_plan(n_places: int, module_size: int) -> str:
+    """One sentence: how the places split into modules (naming a smaller last module)."""
+    full, rest = divmod(int(n_places), int(module_size))
+    if rest == 0:
+        return f"{n_places} places in {full} module(s) of {module_size}"
+    if full == 0:
+        return f"{n_places} places in 1 module of {rest} (fewer than the module size {module_size})"
+    return (
+        f"{n_places} places in {full} module(s) of {module_size} and a last, smaller module of {rest} "
+        f"({n_places} is not a multiple of {module_size})"
+    )
+
+
+def _digest(*parts: Any) -> str:
+    h = hashlib.sha256()
+    for part in parts:
+        h.update(part.tobytes() if isinstance(part, np.ndarray) else json.dumps(part, sort_keys=True).encode())
+        h.update(b"\x00")
+    return h.hexdigest()
+
+
+def reference_digest(reference: np.ndarray) -> str:
+    """SHA-256 of preprocessed reference images as the run stores them (``uint8``, one row per image)."""
+    return _digest(_as_rows(reference))
+
+
+def _as_rows(images: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(np.asarray(images, dtype=np.uint8).reshape(len(images), -1))
+
+
+def _modules_dir(run_dir: Path) -> Path:
+    return run_dir / "modules"
+
+
+def _finished(run_dir: Path, job: ModulePlan, fingerprint: str) -> bool:
+    rec_path = _modules_dir(run_dir) / f"{job.name}.npz"
+    if not rec_path.is_file():
+        return False
+    if not (_modules_dir(run_dir) / f"{job.name}.h5").is_file():
+        return False
+    found = str(read_npz(rec_path).get("fingerprint", ""))
+    if found != fingerprint:
+        raise nv.ValidationError(
+            f"{rec_path} was trained with other settings, data or seed than this run; use a new --out folder instead of --resume."
+        )
+    return True
+
+
+def train_run(
+    run_dir: str | Path,
+    reference: np.ndarray,
+    settings: TrainingSettings,
+    *,
+    members: int = 1,
+    seed: int = 0,
+    place_order: str = "route",
+    hyperactive: str = "spikes",
+    theta: float | None = None,
+    score: str = "sum",
+    workers: int = 1,
+    scheduler: str | None = None,
+    resume: bool = False,
+    max_modules: int | None = None,
+    info: dict[str, Any] | None = None,
+    progress: bool = True,
+) -> dict[str, Any]:
+    """Train every module of every member into ``run_dir``; write ``run.json`` when all are done.
+
+    Parameters
+    ----------
+    reference
+        Preprocessed reference images ``(R, 28, 28)`` (0..255).
+    settings
+        Graph, coding and training settings.
+    members, seed, place_order
+        Ensemble size, master seed and how places are cut into modules (see the module docstring).
+    hyperactive, theta, score
+        Hyperactive measure (``"spikes"`` or ``"images"``), a fixed theta (``None``:
+        drawn per member) and the place score (``"sum"`` or ``"mean"``), stored for evaluation.
+    workers, scheduler
+        Local worker processes, or a Dask scheduler address.
+    resume
+        Skip finished modules; without it ``run_dir`` must not hold modules yet.
+    max_modules
+        Train at most this many of the unfinished modules, then stop (resume later).
+    info
+        Extra entries for ``run.json`` (dataset path, place count, ...).
+
+    Returns
+    -------
+    dict
+        A summary: the plan, modules trained now and skipped, timing per module, and
+        ``"complete"`` (with ``"remaining_modules"`` when ``max_modules`` stopped it
+        early, with the members' ``"thetas"`` when ``run.json`` was written).
+    """
+    run_dir = Path(run_dir)
+    images = _as_rows(reference)
+    n_ref = images.shape[0]
+    if hyperactive not in ("spikes", "images"):
+        raise nv.ValidationError(f"hyperactive measure is {hyperactive!r}, expected 'spikes' or 'images'.")
+    if score not in ("sum", "mean"):
+        raise nv.ValidationError(f"place score is {score!r}, expected 'sum' or 'mean'.")
+    if theta is not None and not (np.isfinite(theta) and theta >= 0):
+        raise nv.ValidationError(f"hyperactive threshold theta is {theta!r}, expected a number >= 0.")
+    if max_modules is not None and max_modules < 1:
+        raise nv.ValidationError(f"max modules is {max_modules}, expected at least 1.")
+    existing = _modules_dir(run_dir).is_dir() and any(_modules_dir(run_dir).iterdir())
+    if (existing or (run_dir / "run.json").exists()) and not resume:
+        raise nv.ValidationError(f"{run_dir} already holds a run; pass --resume to continue it or choose another --out.")
+    plan = make_plan(n_ref, settings.module_size, members, seed, place_order)
+    cfg = json.dumps(settings.as_dict(), sort_keys=True)
+    data_digest = _digest(images)
+    prints = [_digest(cfg, data_digest, j.places, j.seed, j.name) for j in plan]
+    todo = [i for i, j in enumerate(plan) if not _finished(run_dir, j, prints[i])]
+    skipped = len(plan) - len(todo)
+    if max_modules is not None:
+        todo = todo[:max_modules]
+    _modules_dir(run_dir).mkdir(parents=True, exist_ok=True)
+    timings: list[dict[str, float]] = []
+
+    def write(index: int, result: dict[str, Any]) -> None:
+        job = plan[todo[index]]
+        atomic_write_bytes(_modules_dir(run_dir) / f"{job.name}.h5", result["network"])
+        atomic_write_bytes(_modules_dir(run_dir) / f"{job.name}.npz", result["record"])
+        timings.append(result["timing"])
+
+    jobs = [(cfg, f"modular_snn_{plan[i].name}", plan[i].places, plan[i].seed, prints[i]) for i in todo]
+    start = time.perf_counter()
+    bar = _bar(len(plan), skipped, "training modules", progress)
+    try:
+        run_jobs(train_job, images, jobs, write, workers=workers, scheduler=scheduler, progress=bar)
+    finally:
+        if bar is not None:
+            bar.close()
+    wall = time.perf_counter() - start
+    remaining = sum(1 for i, j in enumerate(plan) if not _finished(run_dir, j, prints[i]))
+    summary: dict[str, Any] = {
+        "run": str(run_dir),
+        "plan": describe_plan(n_ref, settings.module_size),
+        "members": int(members),
+        "modules_per_member": len(plan) // int(members),
+        "trained_now": len(todo),
+        "skipped_finished": skipped,
+        "wall_seconds": round(wall, 3),
+    }
+    if timings:
+        for key in ("train_seconds", "train_cpu_seconds", "record_seconds", "record_cpu_seconds"):
+            summary[f"{key}_per_module"] = round(float(np.mean([t[key] for t in timings])), 3)
+    if remaining:
+        summary.update(complete=False, remaining_modules=remaining)
+        return summary
+    thetas = [
+        float(theta) if theta is not None else draw_hyperactive_threshold(n_ref, _member_rng(seed, m))
+        for m in range(int(members))
+    ]
+    records = [read_npz(_modules_dir(run_dir) / f"{j.name}.npz") for j in plan]
+    run_info = {
+        "model": "modular",
+        "format": RUN_FORMAT,
+        "backend": settings.backend,
+        "seed": int(seed),
+        "n_reference": n_ref,
+        "reference_digest": data_digest,
+        "members": int(members),
+        "module_size": settings.module_size,
+        "place_order": place_order,
+        "plan": describe_plan(n_ref, settings.module_size),
+        "hyperactive": {"measure": hyperactive, "thetas": thetas},
+        "score": score,
+        "settings": settings.as_dict(),
+        "modules": [
+            {"member": j.member, "module": j.module, "name": j.name, "seed": j.seed, "places": j.places.tolist()} for j in plan
+        ],
+        **{
+            f"{key}_per_module": round(float(np.mean([float(r[key]) for r in records])), 3)
+            for key in ("train_seconds", "train_cpu_seconds", "record_seconds", "record_cpu_seconds")
+        },
+        **(info or {}),
+    }
+    atomic_write_text(run_dir / "run.json", json.dumps(run_info, indent=1))
+    summary.update(complete=True, thetas=thetas)
+    return summary
+
+
+def _member_rng(seed: int, member: int) -> np.random.Generator:
+    """The generator of member ``member``'s hyperactive threshold."""
+    return np.random.default_rng([derive_seed(seed, member, 1), 1])
+
+
+def _bar(total: int, initial: int, desc: str, enabled: bool) -> Any:
+    if not enabled:
+        return None
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, initial=initial, desc=desc, unit="module")
+
+
+def _modules(run_info: dict[str, Any]) -> list[dict[str, Any]]:
+    mods = run_info.get("modules")
+    if not isinstance(mods, list) or not mods:
+        raise nv.ValidationError("run.json lists no modules; was the run complete?")
+    return mods
+
+
+def query_responses(
+    run_dir: str | Path,
+    run_info: dict[str, Any],
+    query: np.ndarray,
+    *,
+    backend: str | None = None,
+    workers: int = 1,
+    scheduler: str | None = None,
+    progress: bool = True,
+) -> dict[str, np.ndarray]:
+    """Spike counts ``(Q, n)`` of every module for the query images, by module name (cached in the run).
+
+    The cache file of a module holds the digest of the query images, the backend and
+    the module network's digest; any difference recomputes it.
+    """
+    run_dir = Path(run_dir)
+    backend = backend or run_info["backend"]
+    settings = TrainingSettings.from_dict(run_info["settings"])
+    cfg = json.dumps(settings.as_dict(), sort_keys=True)
+    images = _as_rows(query)
+    q_digest = _digest(images)
+    cache = run_dir / "query" / backend
+    out: dict[str, np.ndarray] = {}
+    jobs, names, keys = [], [], []
+    for mod in _modules(run_info):
+        name = str(mod["name"])
+        h5 = _modules_dir(run_dir) / f"{name}.h5"
+        if not h5.is_file():
+            raise nv.ValidationError(f"{h5} is missing; the run directory is incomplete.")
+        net_bytes = h5.read_bytes()
+        key = _digest(q_digest, backend, hashlib.sha256(net_bytes).hexdigest())
+        cached = cache / f"{name}.npz"
+        if cached.is_file():
+            rec = read_npz(cached)
+            if str(rec.get("key", "")) == key:
+                out[name] = rec["counts"]
+                continue
+        jobs.append((cfg, backend, net_bytes, derive_seed(int(mod["seed"]), 2)))
+        names.append(name)
+        keys.append(key)
+
+    def write(index: int, counts: np.ndarray) -> None:
+        atomic_write_bytes(cache / f"{names[index]}.npz", npz_bytes(counts=counts, key=np.str_(keys[index])))
+        out[names[index]] = counts
+
+    bar = _bar(len(_modules(run_info)), len(out), f"query responses ({backend})", progress)
+    try:
+        run_jobs(query_job, images, jobs, write, workers=workers, scheduler=scheduler, progress=bar)
+    finally:
+        if bar is not None:
+            bar.close()
+    return out
+
+
+def member_similarities(
+    run_dir: str | Path, run_info: dict[str, Any], counts: dict[str, np.ndarray], members: Sequence[int] | None = None
+) -> list[np.ndarray]:
+    """The ``(R, Q)`` similarity matrix of each member: assignment, hyperactive removal, fusion."""
+    run_dir = Path(run_dir)
+    n_ref = int(run_info["n_reference"])
+    thetas = run_info["hyperactive"]["thetas"]
+    measure = run_info["hyperactive"]["measure"]
+    chosen = range(int(run_info["members"])) if members is None else members
+    by_member: dict[int, list[np.ndarray]] = {int(m): [] for m in chosen}
+    for mod in _modules(run_info):
+        m = int(mod["member"])
+        if m not in by_member:
+            continue
+        rec = read_npz(_modules_dir(run_dir) / f"{mod['name']}.npz")
+        assignments = assign_neurons(rec["own_responses"], rec["places"])
+        activity = rec["total_spikes"] if measure == "spikes" else rec["images_fired"]
+        ignore = hyperactive_neurons(activity, thetas[m])
+        by_member[m].append(module_similarity(counts[mod["name"]], assignments, n_ref, ignore=ignore, score=run_info["score"]))
+    return [fuse_modules(by_member[m]) for m in by_member]
