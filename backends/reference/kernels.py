@@ -219,38 +219,46 @@ def run_steps(
             if kd != KIND_CURR and kd != KIND_COND:
                 continue
             stats[ST_NEURON_UPDATES] += 1
-            p = params[i]
             if refr[i] > 0:
                 refr[i] -= 1
             elif kd == KIND_CURR:
                 v[i] = (
-                    p[C_V_REST]
-                    + (v[i] - p[C_V_REST]) * p[C_P22]
-                    + ie[i] * p[C_P21E]
-                    - ii[i] * p[C_P21I]
-                    - ica[i] * p[C_P21CA]
-                    + p[C_I_OFFSET] * p[C_P20]
+                    params[i, C_V_REST]
+                    + (v[i] - params[i, C_V_REST]) * params[i, C_P22]
+                    + ie[i] * params[i, C_P21E]
+                    - ii[i] * params[i, C_P21I]
+                    - ica[i] * params[i, C_P21CA]
+                    + params[i, C_I_OFFSET] * params[i, C_P20]
                 )
             elif ie[i] == 0.0 and ii[i] == 0.0:  # no conductance: the leak alone (P22 = exp(-dt gL / cm))
-                v[i] = p[C_V_REST] + (v[i] - p[C_V_REST]) * p[C_P22] + p[C_I_OFFSET] * p[C_P20]
+                v[i] = (
+                    params[i, C_V_REST]
+                    + (v[i] - params[i, C_V_REST]) * params[i, C_P22]
+                    + params[i, C_I_OFFSET] * params[i, C_P20]
+                )
             else:
-                ge = ie[i] * p[C_FE]
-                gi = ii[i] * p[C_FI]
-                gt = p[C_GL] + ge + gi
-                v_inf = (p[C_GL] * p[C_V_REST] + ge * p[C_E_REV_E] + gi * p[C_E_REV_I] + p[C_I_OFFSET]) / gt
-                v[i] = v_inf + (v[i] - v_inf) * np.exp(-dt * gt / p[C_CM])
+                ge = ie[i] * params[i, C_FE]
+                gi = ii[i] * params[i, C_FI]
+                gt = params[i, C_GL] + ge + gi
+                v_inf = (
+                    params[i, C_GL] * params[i, C_V_REST]
+                    + ge * params[i, C_E_REV_E]
+                    + gi * params[i, C_E_REV_I]
+                    + params[i, C_I_OFFSET]
+                ) / gt
+                v[i] = v_inf + (v[i] - v_inf) * np.exp(-dt * gt / params[i, C_CM])
             # decay; values below FLUSH (1e-18 nA or uS, ~1e-20 mV per step) are exactly 0 from then on
-            ie[i] = _flush(ie[i] * p[C_P11E])
-            ii[i] = _flush(ii[i] * p[C_P11I])
-            ica[i] = _flush(ica[i] * p[C_P11CA])
+            ie[i] = _flush(ie[i] * params[i, C_P11E])
+            ii[i] = _flush(ii[i] * params[i, C_P11I])
+            ica[i] = _flush(ica[i] * params[i, C_P11CA])
             if plastic_on:
-                theta[i] *= p[C_THETA_DECAY]
-            if v[i] >= p[C_V_THRESH] + theta[i] and refr[i] == 0:
-                v[i] = p[C_V_RESET]
-                refr[i] = np.int64(p[C_REFRAC])
-                ica[i] += p[C_I_ALPHA]
+                theta[i] *= params[i, C_THETA_DECAY]
+            if v[i] >= params[i, C_V_THRESH] + theta[i] and refr[i] == 0:
+                v[i] = params[i, C_V_RESET]
+                refr[i] = np.int64(params[i, C_REFRAC])
+                ica[i] += params[i, C_I_ALPHA]
                 if plastic_on:
-                    theta[i] += p[C_THETA_PLUS]
+                    theta[i] += params[i, C_THETA_PLUS]
                     _potentiate(i, j + 1, dt, post_ptr, post_syn, p_proj, p_w, p_xpre, p_last, p_trace,
                                 rules, pre_table, xpost2, stats)  # fmt: skip
                 _post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2)

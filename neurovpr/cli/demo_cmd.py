@@ -83,8 +83,10 @@ def run(args: argparse.Namespace) -> int:
             eargs = eval_parser.parse_args(["--report", str(args.out)])
             eargs.__dict__.update(run=run_dir, data=None, backend=args.backend, seq_len=seq_len, scheduler=None)
             results[seq_len] = model.evaluate(eargs, info)
+        hardware = _hardware_rows(sorted((run_dir / "modules").glob("*.h5"))[0], args.out)
     elapsed = time.perf_counter() - start
     summary = _summary(args, trained, results, elapsed)
+    summary["hardware"] = hardware
     args.out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(args.out / "summary.json", json.dumps(summary, indent=2))
     if args.json:
@@ -92,6 +94,40 @@ def run(args: argparse.Namespace) -> int:
     else:
         _print_table(summary)
     return 0
+
+
+def _hardware_rows(module_file: Path, out: Path) -> list[dict[str, Any]]:
+    """Fit check and energy of one trained module on every hwspec (one query's activity, reference backend)."""
+    import numpy as np
+
+    import neurovpr as nv
+    from neurovpr.hardware import check_network, estimate_energy, known_hwspecs
+    from neurovpr.hardware.plots import plot_utilisation
+
+    net = nv.load(module_file)
+    dt = 0.5  # the module's time step (its input delays start at 0.5 ms)
+    sim = nv.compile(net, backend="reference", dt=dt, seed=0, record_spikes=())
+    sim.plasticity(False)
+    rates = np.random.default_rng(0).uniform(0.0, 63.75, net.populations["pixels"].size)
+    sim.run(350.0, inputs={"pixels": rates})
+    activity = dict(sim.statistics(), inferences=1, dt_ms=dt)
+    rows = []
+    for hw in known_hwspecs():
+        report = check_network(net, hw)
+        energy = estimate_energy(activity, hw, network=net, partition=report.partition)
+        d = report.as_dict()
+        plot_utilisation(report, out / f"utilisation_{hw}.png")
+        rows.append(
+            {
+                "hardware": hw,
+                "fits": d["fits"],
+                "chips": d["chips"],
+                "cores": d["cores"],
+                "violations": len(d["violations"]),
+                "joules_per_inference": energy.joules_per_inference,
+            }
+        )
+    return rows
 
 
 def _summary(args: argparse.Namespace, trained: dict[str, Any], results: dict[int, Any], elapsed: float) -> dict[str, Any]:
@@ -130,6 +166,14 @@ def _print_table(summary: dict[str, Any]) -> None:
         print(f"  {name:<16}" + "".join(f"{values[c]:>12.3f}" for c in cols), file=out)
     mean = summary["mean_of_members_R@1"]
     print("  (mean of the members: " + ", ".join(f"{k} {v:.3f}" for k, v in mean.items()) + ")", file=out)
+    print("  one module on neuromorphic hardware (fit check, energy of one query):", file=out)
+    for row in summary.get("hardware", []):
+        fits = "fits" if row["fits"] else f"does not fit ({row['violations']} violations)"
+        print(
+            f"    {row['hardware']:<11} {row['cores']:>4} cores {row['chips']:>2} chip(s)  {fits:<28}"
+            f" {row['joules_per_inference']:.3g} J",
+            file=out,
+        )
     print(
         f"  training {summary['train_seconds_per_module']} s per module; total {summary['total_seconds']} s; "
         f"report written to {summary['report']}",
