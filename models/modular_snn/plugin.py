@@ -268,7 +268,10 @@ class ModularSNNPlugin(ModelPlugin):
         cfg = json.dumps(TrainingSettings.from_dict(run_info["settings"]).as_dict(), sort_keys=True)
         jobs = []
         for mod in modules:
-            net_bytes = (run_dir / "modules" / f"{mod['name']}.h5").read_bytes()
+            path = run_dir / "modules" / f"{mod['name']}.h5"
+            if not path.is_file():
+                raise nv.ValidationError(f"{path} is missing; the run directory is incomplete.")
+            net_bytes = path.read_bytes()
             job_seed = derive_seed(int(mod["seed"]), 2) if seed == 0 else derive_seed(int(mod["seed"]), 2, int(seed))
             jobs.append((cfg, backend, net_bytes, job_seed, learns))
         results: dict[int, dict[str, Any]] = {}

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from neurovpr.errors import NeurovprError
 
 #: Subcommand modules, in the order ``--help`` lists them.
-COMMANDS = ("demo", "backends", "train", "eval", "check", "energy", "export", "import")
+COMMANDS = ("demo", "backends", "train", "eval", "check", "energy", "compare", "export", "import")
 
 EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 

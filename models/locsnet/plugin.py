@@ -1,0 +1,336 @@
+"""``neurovpr train/eval --model locsnet``: the command-line integration of LoCS-Net.
+
+``train`` reads a traverse (the generic layout or a published one), labels the
+reference frames with places, preprocesses them to the network input, trains the
+rate network with torch, converts it to a spiking network, calibrates the place layer
+on the spiking network and writes the run directory (:mod:`.runs`). ``eval`` runs
+the query traverse through the spiking network on a backend, next to the rate model
+and SAD on the same inputs, prints the metrics and writes plots and the per-inference
+activity (for ``neurovpr energy``).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from neurovpr.errors import ValidationError
+from neurovpr.modelapi import ModelPlugin
+
+__all__ = ["LoCSNetPlugin", "MODEL"]
+
+_PRESETS = ("paper", "small")
+
+
+def _positive_int(text: str) -> int:
+    value = int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text}")
+    return value
+
+
+class LoCSNetPlugin(ModelPlugin):
+    """LoCS-Net (Akcal et al., Frontiers in Neurorobotics 2025)."""
+
+    name = "locsnet"
+    description = "LoCS-Net: convolutional spiking place classifier trained through SoftLIF (torch)"
+
+    # -- arguments ------------------------------------------------------------------------
+    def add_train_arguments(self, parser: argparse.ArgumentParser) -> None:
+        """Options of ``neurovpr train --model locsnet``."""
+        a = parser.add_argument
+        a("--preset", choices=_PRESETS, default="paper", help="layer sizes: paper (56x56, 8/16/32 filters) or small")
+        a("--frames-per-place", type=_positive_int, default=1, help="aligned traverses: consecutive frames per place (1)")
+        a("--positions", type=Path, default=None, help="CSV set,index,x,y (metres): label places by grid tiles")
+        a("--tile-size", type=float, default=25.0, help="grid tile side in metres (25)")
+        a("--min-tile-images", type=_positive_int, default=2, help="drop tiles with fewer reference images (2)")
+        a("--epochs", type=_positive_int, default=40, help="training epochs (40)")
+        a("--batch-size", type=_positive_int, default=64, help="batch size (64)")
+        a("--learning-rate", type=float, default=5e-3, help="peak learning rate of Adam (5e-3)")
+        a("--weight-decay", type=float, default=1e-5, help="L2 weight regularisation (1e-5)")
+        a("--rate-penalty", type=float, default=0.0, help="L2 penalty on hidden activations (0)")
+        a("--quantise", metavar="HW", default=None, help="quantisation-aware training to this hwspec's weights")
+        a("--place-loss", choices=("current", "rate"), default="current", help="what the loss sees of the place layer")
+        a("--checkpoint", type=Path, default=None, help="start from this model.pt (same architecture)")
+        a("--no-patch-norm", action="store_true", help="plain grayscale input instead of patch normalisation")
+        a("--conv-bias", action="store_true", help="keep biases in the conv layers (the paper removed them)")
+        a("--threads", type=_positive_int, default=1, help="torch threads (1: fastest on a shared 2-core machine)")
+        self._spiking_arguments(parser)
+        a("--calibration-images", type=int, default=100, help="training images to calibrate the place layer on (100)")
+
+    def add_eval_arguments(self, parser: argparse.ArgumentParser) -> None:
+        """Options of ``neurovpr eval`` for a LoCS-Net run."""
+        a = parser.add_argument
+        a("--queries", type=_positive_int, default=None, help="evaluate this many evenly spaced queries (all)")
+        a("--hw", dest="hardware", default=None, help="compile with this hwspec (backends that emulate it)")
+        a("--eval-positions", type=Path, default=None, help="CSV of positions for grid labels (default: training's)")
+        a("--no-plots", action="store_true", help="do not write PNG plots")
+
+    @staticmethod
+    def _spiking_arguments(parser: argparse.ArgumentParser) -> None:
+        a = parser.add_argument
+        a("--presentation", type=float, default=50.0, help="presentation window per image, ms (50)")
+        a("--input-coding", choices=("poisson", "regular"), default="poisson", help="input spikes (poisson)")
+        a("--input-rate", type=float, default=250.0, help="rate of a pixel of value 1, Hz (250)")
+        a("--tau-syn", type=float, default=1.0, help="synaptic time constant, ms (1)")
+        a("--dt", type=float, default=1.0, help="time step, ms (1, Loihi's)")
+        a("--feature-groups", type=int, default=None,
+          help="conv3 as this many populations, for Loihi's output-axon limit (default: 8 for paper, 1 for small)")
+
+    # -- train ----------------------------------------------------------------------------
+    def train(self, args: argparse.Namespace) -> dict[str, Any]:
+        """Train into ``args.out``; see the module docstring."""
+        from .architecture import paper_architecture, small_architecture
+        from .conversion import SpikingParameters, layer_populations, to_spiking_network
+        from .runs import write_run
+
+        t_start = time.perf_counter()
+        out = Path(args.out)
+        if (out / "run.json").is_file():
+            if getattr(args, "resume", False):
+                from .runs import load_run
+
+                run = load_run(out)
+                return {"model": "locsnet", "run": str(out), "resumed": True, "n_places": run.arch.n_places}
+            raise ValidationError(f"run directory {out} already holds a finished run; use --resume or another --out.")
+        if getattr(args, "scheduler", None):
+            raise ValidationError("LoCS-Net trains one network in one process; --scheduler is not supported for it.")
+        settings = self._settings(args)
+        traverse, labels, positions_used = self._labels(args)
+        arch = (paper_architecture if args.preset == "paper" else small_architecture)(labels.n_places)
+        if args.conv_bias:
+            arch = dataclasses.replace(arch, conv_bias=True)
+        size = arch.input_size
+        groups = args.feature_groups if args.feature_groups is not None else (8 if args.preset == "paper" else 1)
+        spiking = SpikingParameters(dt=args.dt, tau_syn=args.tau_syn, input_rate=args.input_rate,
+                                    presentation=args.presentation, input_coding=args.input_coding,
+                                    feature_groups=groups)
+        layer_populations(arch, spiking)  # a bad grouping fails before training
+        weight_format = None
+        if settings.quantise:
+            from .quantise import weight_format as hw_format
+
+            weight_format = hw_format(settings.quantise)
+        initial = None
+        if args.checkpoint is not None:
+            from .runs import load_checkpoint
+
+            initial = load_checkpoint(args.checkpoint, arch, settings.place_loss)
+        t0 = time.perf_counter()
+        images, image_labels = _training_images(traverse, labels, size, not args.no_patch_norm)
+        t_pre = time.perf_counter() - t0
+        from .training import train
+
+        result = train(arch, images, image_labels, settings, weight_format=weight_format, progress=True,
+                       initial_state=initial)
+        params, calibration = result.parameters, {"rate": result.calibration}
+        t0 = time.perf_counter()
+        if settings.place_loss == "current" and args.calibration_images > 0:
+            from .calibration import calibrate_spiking
+
+            pick = np.linspace(0, images.shape[0] - 1, min(args.calibration_images, images.shape[0])).astype(int)
+            params, calibration["spiking"] = calibrate_spiking(
+                arch, params, spiking, images[pick], drive=settings.place_drive, active=settings.active_places,
+                seed=args.seed, progress=True)
+        t_cal = time.perf_counter() - t0
+        network = to_spiking_network(arch, params, spiking, name="locsnet")
+        info = {
+            "backend": args.backend,
+            "seed": args.seed,
+            "data": str(Path(args.data).resolve()),
+            "positions": str(positions_used) if positions_used else None,
+            "n_places": arch.n_places,
+            "n_training_images": int(images.shape[0]),
+            "places": {"scheme": labels.scheme, "frames_per_place": labels.frames_per_place,
+                       "tile_size": labels.tile_size},
+            "preprocess": {"size": list(size), "patch_norm": not args.no_patch_norm},
+            "architecture": arch.to_dict(),
+            "spiking": spiking.to_dict(),
+            "training": settings.to_dict(),
+            "calibration": calibration,
+            "history": result.history,
+            "timing": {"preprocess_s": t_pre, "train_s": result.seconds, "train_cpu_s": result.cpu_seconds,
+                       "calibration_s": t_cal, "total_s": time.perf_counter() - t_start},
+        }
+        write_run(out, info=info, arch=arch, spiking=spiking, network=network, labels=labels,
+                  state_dict=result.state_dict)
+        last = result.history[-1]
+        return {"model": "locsnet", "run": str(out), "n_places": arch.n_places, "architecture": arch.describe(),
+                "epochs": len(result.history), "train_accuracy": last["train_accuracy"], "loss": last["loss"],
+                "train_seconds": round(result.seconds, 2), "train_cpu_seconds": round(result.cpu_seconds, 2),
+                "total_seconds": round(time.perf_counter() - t_start, 2)}
+
+    @staticmethod
+    def _settings(args: argparse.Namespace) -> Any:
+        from .training import TrainingSettings
+
+        return TrainingSettings(epochs=args.epochs, batch_size=args.batch_size, learning_rate=args.learning_rate,
+                                weight_decay=args.weight_decay, rate_penalty=args.rate_penalty, quantise=args.quantise,
+                                place_loss=args.place_loss, seed=args.seed, threads=args.threads)
+
+    @staticmethod
+    def _labels(args: argparse.Namespace) -> tuple[Any, Any, Path | None]:
+        from neurovpr.data import open_traverse
+
+        from .places import frame_labels, grid_labels, read_positions_csv
+
+        traverse = open_traverse(args.data)
+        if args.positions is not None:
+            ref_xy, _ = read_positions_csv(args.positions, traverse.n_reference, traverse.n_query)
+            return traverse, grid_labels(ref_xy, args.tile_size, args.min_tile_images), Path(args.positions).resolve()
+        return traverse, frame_labels(traverse.n_reference, args.frames_per_place), None
+
+    # -- eval -----------------------------------------------------------------------------
+    def evaluate(self, args: argparse.Namespace, run_info: dict[str, Any]) -> dict[str, Any]:
+        """Evaluate the run in ``args.run``; returns the JSON object ``eval --json`` prints."""
+        from neurovpr.data import open_traverse
+
+        from .inference import SpikingClassifier, rate_forward
+        from .places import distance_confusion, place_ground_truth, query_tiles, read_positions_csv
+        from .preprocess import preprocess
+        from .report import sad_place_distances, score, similarity_distances, write_activity, write_plots
+        from .runs import load_run
+
+        run = load_run(args.run)
+        backend = args.backend or run.info.get("backend", "reference")
+        data = Path(args.data) if args.data is not None else Path(run.info["data"])
+        traverse = open_traverse(data)
+        if traverse.n_reference != run.labels.labels.size:
+            raise ValidationError(
+                f"dataset {data} has {traverse.n_reference} reference images but the run was trained on "
+                f"{run.labels.labels.size}; evaluate on the same reference traverse."
+            )
+        pre = run.info.get("preprocess", {})
+        size = tuple(pre.get("size", run.arch.input_size))
+        patch_norm = bool(pre.get("patch_norm", True))
+        positions = args.eval_positions or (Path(run.info["positions"]) if run.info.get("positions") else None)
+        query_xy = None
+        if run.labels.scheme == "grid":
+            if positions is None:
+                raise ValidationError("this run labels places by grid tiles; give the query positions with --eval-positions.")
+            _, query_xy = read_positions_csv(positions, traverse.n_reference, traverse.n_query)
+            tiles = query_tiles(run.labels, query_xy)
+            gt = np.zeros((run.arch.n_places, traverse.n_query), dtype=bool)
+            gt[tiles[tiles >= 0], np.flatnonzero(tiles >= 0)] = True
+        else:
+            gt = place_ground_truth(traverse.ground_truth, run.labels)
+        q_idx = np.arange(traverse.n_query)
+        if args.queries is not None and args.queries < traverse.n_query:
+            q_idx = np.unique(np.linspace(0, traverse.n_query - 1, args.queries).astype(int))
+        queries = preprocess(traverse.query.subset(q_idx).images(progress=True), size, patch_norm=patch_norm)
+        gt = gt[:, q_idx]
+        results: dict[str, Any] = {}
+        curves, recalls = {}, {}
+        # spiking network on the backend
+        clf = SpikingClassifier(run.network, run.arch, run.spiking, backend=backend, seed=int(run.info.get("seed", 0)),
+                                hardware=args.hardware)
+        spikes = clf.run(queries, progress=True)
+        metrics, curves["LoCS-Net spiking"], recalls["LoCS-Net spiking"] = score(similarity_distances(spikes.counts), gt)
+        # rate model and SAD on the same inputs
+        rates = rate_forward(run.arch, run.params, queries)["places"].T
+        rate_metrics, curves["rate model (SoftLIF)"], recalls["rate model (SoftLIF)"] = score(similarity_distances(rates), gt)
+        reference = preprocess(traverse.reference.images(progress=True), size, patch_norm=patch_norm)
+        sad_metrics, curves["SAD"], recalls["SAD"] = score(sad_place_distances(reference, queries, run.labels), gt)
+        results = {
+            "model": "locsnet",
+            "backend": backend,
+            "metrics": metrics,
+            "rate_model": rate_metrics,
+            "baselines": {"SAD": sad_metrics},
+            "queries": int(q_idx.size),
+            "places": run.arch.n_places,
+            "seconds_per_query": float(np.median(spikes.seconds)),
+            "compile_seconds": clf.compile_seconds,
+            "layer_spikes_per_query": spikes.layer_spikes,
+        }
+        if query_xy is not None:
+            predicted = np.argmax(spikes.counts, axis=0)
+            results["distance"] = distance_confusion(run.labels, predicted, query_xy[q_idx])
+        if spikes.totals is not None:
+            results["activity"] = write_activity(args.run, spikes, run.spiking.dt)
+        if not args.no_plots:
+            folder = Path(args.run) / "eval" / backend
+            results["plots"] = write_plots(folder, curves, recalls,
+                                           title=f"{run.arch.n_places} places, {backend}")
+        return results
+
+    # -- infer (neurovpr compare) -----------------------------------------------------------
+    def infer(self, run_dir: Path, data: Path | None, backend: str, *, seed: int = 0) -> dict[str, Any]:
+        """Run the converted spiking network of ``run_dir`` on ``backend`` over every query of ``data``.
+
+        The trained weights of ``network.h5`` run unchanged (they never learn on-line);
+        a backend that cannot run the network (a cell type, connector or parameter it
+        lacks) refuses it when compiling, before any query, with
+        :class:`~neurovpr.errors.UnsupportedFeatureError`. Metrics are those of ``eval``
+        (precision at 100% recall, PR AUC, Recall@N over places); the prediction of a
+        query is the place neuron with the most spikes, the output counts are the place
+        layer's spike counts ``(queries, places)``.
+        """
+        from neurovpr.data import open_traverse
+
+        from .inference import SpikingClassifier
+        from .places import place_ground_truth, query_tiles, read_positions_csv
+        from .preprocess import preprocess
+        from .report import score, similarity_distances
+        from .runs import load_run
+
+        run = load_run(run_dir)
+        data = Path(data) if data is not None else Path(run.info["data"])
+        traverse = open_traverse(data)
+        if traverse.n_reference != run.labels.labels.size:
+            raise ValidationError(
+                f"dataset {data} has {traverse.n_reference} reference images but the run was trained on "
+                f"{run.labels.labels.size}; compare on the same reference traverse."
+            )
+        if run.labels.scheme == "grid":
+            if not run.info.get("positions"):
+                raise ValidationError(f"run {run_dir} labels places by grid tiles but names no positions file.")
+            _, query_xy = read_positions_csv(Path(run.info["positions"]), traverse.n_reference, traverse.n_query)
+            tiles = query_tiles(run.labels, query_xy)
+            gt = np.zeros((run.arch.n_places, traverse.n_query), dtype=bool)
+            gt[tiles[tiles >= 0], np.flatnonzero(tiles >= 0)] = True
+        else:
+            gt = place_ground_truth(traverse.ground_truth, run.labels)
+        pre = run.info.get("preprocess", {})
+        size = tuple(pre.get("size", run.arch.input_size))
+        queries = preprocess(traverse.query.images(progress=True), size, patch_norm=bool(pre.get("patch_norm", True)))
+        clf = SpikingClassifier(run.network, run.arch, run.spiking, backend=backend, seed=int(seed))
+        try:
+            spikes = clf.run(queries, progress=True, desc="compare")
+        finally:
+            close = getattr(clf.sim, "close", None)
+            if close is not None:
+                close()  # Lava's runtime processes, Nengo's simulator
+        metrics, _, _ = score(similarity_distances(spikes.counts), gt)
+        activity = None
+        if spikes.activity is not None:
+            activity = {**spikes.activity, "dt_ms": run.spiking.dt, "population_spikes": dict(spikes.layer_spikes)}
+        return {
+            "metrics": metrics,
+            "predictions": np.argmax(spikes.counts, axis=0).astype(np.int64),
+            "output_counts": spikes.counts.T,
+            "seconds_per_query": float(np.mean(spikes.seconds)),
+            "activity": activity,
+            "compile_seconds": clf.compile_seconds,
+        }
+
+
+def _training_images(traverse: Any, labels: Any, size: tuple[int, int], patch_norm: bool) -> tuple[np.ndarray, np.ndarray]:
+    """Preprocessed images of every reference traverse with their place labels (dropped frames left out)."""
+    from .preprocess import preprocess
+
+    keep, y = labels.training_set()
+    stacks, ys = [], []
+    for ref in traverse.references:
+        stacks.append(preprocess(ref.subset(keep).images(progress=True), size, patch_norm=patch_norm))
+        ys.append(y)
+    return np.concatenate(stacks), np.concatenate(ys)
+
+
+#: The entry point object (``[project.entry-points."neurovpr.models"] locsnet``).
+MODEL = LoCSNetPlugin()

@@ -1,0 +1,530 @@
+"""One trained model on several backends: accuracy, agreement, spike counts, time and energy.
+
+``neurovpr compare`` runs the model of a run directory on each named backend through
+its plugin's :meth:`~neurovpr.modelapi.ModelPlugin.infer` and compares the results with
+those of the first backend that ran (the *reference of comparison*):
+
+- ``metrics``: the model's own accuracy metrics on that backend (``R@1``, ``P@100R``, ...);
+- ``agreement``: the fraction of queries whose predicted place equals the reference's;
+- ``spike_count_correlation``: Pearson's r between the flattened output spike counts
+  ``(queries, outputs)`` and the reference's (``None`` when either is constant);
+- ``seconds_per_query``: wall-clock time per query as the model measured it;
+- ``energy`` (with a hwspec): joules per inference estimated by
+  :func:`neurovpr.hardware.energy.estimate_energy` from the activity the run counted.
+
+A backend that is installed but cannot be imported, or that cannot run a feature the
+model needs, is not run: its row carries ``refused``, one sentence saying why (the
+import error and the extra to reinstall, or the feature). A backend other than the one
+the run was trained on runs the trained weights with plasticity off; its row says
+``deployed_from`` that backend. This module imports no backend and no model: both are
+found through their entry points.
+"""
+
+from __future__ import annotations
+
+import importlib.metadata
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from neurovpr import modelapi, registry
+from neurovpr.errors import BackendUnavailableError, UnsupportedFeatureError, ValidationError
+
+__all__ = [
+    "BackendComparison",
+    "Comparison",
+    "parse_backends",
+    "availability_refusal",
+    "agreement",
+    "spike_count_correlation",
+    "compare_model",
+    "plot_comparison",
+    "PRIMARY_METRICS",
+]
+
+#: Metrics shown in the table and the plot when the model reports them, in this order.
+PRIMARY_METRICS = ("R@1", "P@100R", "AUC_PR", "AUC_ROC")
+_NETWORK_FILE = "network.h5"
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class BackendComparison:
+    """The result of one backend: a row of the comparison.
+
+    Exactly one of ``refused`` (the sentence why it did not run) or the measured fields
+    (``metrics``, ``seconds_per_query``, ...) is set. ``predictions`` and
+    ``output_counts`` are kept for the caller but not written to JSON.
+    """
+
+    backend: str
+    refused: str | None = None
+    metrics: dict[str, float | None] = field(default_factory=dict)
+    agreement: float | None = None
+    spike_count_correlation: float | None = None
+    seconds_per_query: float | None = None
+    energy: dict[str, Any] | None = None
+    deployed_from: str | None = None
+    predictions: np.ndarray | None = None
+    output_counts: np.ndarray | None = None
+
+    @property
+    def ran(self) -> bool:
+        """True when the backend ran the model."""
+        return self.refused is None
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON object of this backend in ``compare --json``."""
+        if not self.ran:
+            return {"refused": self.refused}
+        out: dict[str, Any] = {
+            "metrics": dict(self.metrics),
+            "agreement": self.agreement,
+            "spike_count_correlation": self.spike_count_correlation,
+            "seconds_per_query": self.seconds_per_query,
+        }
+        if self.energy is not None:
+            out["energy"] = dict(self.energy)
+        if self.deployed_from is not None:
+            out["deployed_from"] = self.deployed_from
+        return out
+
+
+@dataclass(frozen=True, slots=True, kw_only=True, eq=False)
+class Comparison:
+    """A model compared across backends (see the module docstring)."""
+
+    model: str
+    run: str
+    data: str | None
+    trained_on: str | None
+    hardware: str | None
+    rows: tuple[BackendComparison, ...]
+
+    @property
+    def reference_backend(self) -> str | None:
+        """The first backend that ran: what agreement and correlation are measured against."""
+        return next((r.backend for r in self.rows if r.ran), None)
+
+    @property
+    def any_ran(self) -> bool:
+        """True when at least one backend ran the model."""
+        return any(r.ran for r in self.rows)
+
+    def notes(self) -> list[str]:
+        """Sentences on deployment and on the reference of comparison."""
+        out = []
+        deployed: dict[str, list[str]] = {}
+        for row in self.rows:
+            if row.ran and row.deployed_from is not None:
+                deployed.setdefault(row.deployed_from, []).append(row.backend)
+        for source, targets in deployed.items():
+            out.append(f"trained on {source}, deployed to {', '.join(targets)} (the run's learned weights, plasticity off)")
+        ref = self.reference_backend
+        if ref is not None:
+            out.append(f"agreement and spike-count correlation are measured against {ref}")
+        return out
+
+    def shown_metrics(self) -> list[str]:
+        """The metric names the table and plot show."""
+        names = {k for r in self.rows for k in r.metrics}
+        shown = [m for m in PRIMARY_METRICS if m in names]
+        if shown:
+            return shown
+        first = next((r.metrics for r in self.rows if r.metrics), {})
+        return list(first)[:3]
+
+    def as_dict(self) -> dict[str, Any]:
+        """The JSON object ``neurovpr compare --json`` prints."""
+        return {
+            "model": self.model,
+            "run": self.run,
+            "data": self.data,
+            "trained_on": self.trained_on,
+            "hardware": self.hardware,
+            "reference_backend": self.reference_backend,
+            "backends": {r.backend: r.as_dict() for r in self.rows},
+            "notes": self.notes(),
+        }
+
+    def table(self) -> str:
+        """A fixed-width table, one line per backend, then refusals and notes."""
+        metrics = self.shown_metrics()
+        head = ["backend", *metrics, "agreement", "r(counts)", "s/query"]
+        if self.hardware is not None:
+            head.append(f"J/inf {self.hardware}")
+        lines = []
+        for row in self.rows:
+            if not row.ran:
+                lines.append([row.backend, *(["refused"] + [""] * (len(head) - 2))])
+                continue
+            cells = [row.backend, *(_fmt(row.metrics.get(m)) for m in metrics)]
+            cells += [_fmt(row.agreement), _fmt(row.spike_count_correlation), _fmt(row.seconds_per_query, ".4g")]
+            if self.hardware is not None:
+                joules = (row.energy or {}).get("joules_per_inference")
+                cells.append(_fmt(joules, ".4g"))
+            lines.append(cells)
+        widths = [max(len(str(c[i])) for c in [head, *lines]) for i in range(len(head))]
+        text = ["  ".join(str(c).ljust(w) for c, w in zip(r, widths, strict=True)).rstrip() for r in [head, *lines]]
+        text.insert(1, "  ".join("-" * w for w in widths))
+        for row in self.rows:
+            if not row.ran:
+                text.append(f"{row.backend}: refused: {row.refused}")
+            elif row.energy is not None and row.energy.get("joules_per_inference") is None:
+                text.append(f"{row.backend}: energy not estimated: {row.energy.get('reason')}")
+        text += [f"note: {n}" for n in self.notes()]
+        return "\n".join(text)
+
+
+def _fmt(value: float | None, spec: str = ".3f") -> str:
+    return "-" if value is None else format(value, spec)
+
+
+def _backend_names() -> list[str]:
+    return sorted({ep.name for ep in importlib.metadata.entry_points(group=registry.ENTRY_POINT_GROUP)})
+
+
+def parse_backends(text: str | Sequence[str]) -> tuple[str, ...]:
+    """The backend names of ``--backends A,B,...`` (unique, known), or a one-sentence error."""
+    names = [n.strip() for n in (text.split(",") if isinstance(text, str) else text)]
+    if not names or any(not n for n in names):
+        raise ValidationError(f"--backends {text!r} must be a comma-separated list of backend names without empty entries.")
+    seen = {n for n in names if names.count(n) > 1}
+    if seen:
+        raise ValidationError(f"--backends names {sorted(seen)[0]!r} more than once.")
+    known = _backend_names()
+    for name in names:
+        if name not in known:
+            raise BackendUnavailableError(f"Unknown backend {name!r} in --backends; known backends: {', '.join(known)}.")
+    return tuple(names)
+
+
+def availability_refusal(name: str) -> str | None:
+    """``None`` when backend ``name`` can run networks here, else one sentence why not.
+
+    An installed backend whose simulator fails to import gets the import error and the
+    extra to reinstall; a mapping-only backend its own refusal.
+    """
+    try:
+        backend = registry.get_backend(name)
+    except BackendUnavailableError as exc:
+        return f"{str(exc).rstrip('.')}; reinstall neurovpr with the extra that provides it."
+    reason = backend.unavailable_reason()
+    if reason is None:
+        caps = backend.capabilities
+        if not caps.runs:
+            return caps.run_refusal or f"Backend {name!r} maps networks but does not run them."
+        return None
+    reason = reason.rstrip(".")
+    extra = backend.extra
+    if extra and f"neurovpr[{extra}]" not in reason and f"'{extra}' extra" not in reason:
+        reason += f"; reinstall it with: pip install --force-reinstall 'neurovpr[{extra}]'"
+    return f"Backend {name!r} is installed but cannot be used here: {reason}."
+
+
+def agreement(predictions: np.ndarray, reference: np.ndarray) -> float:
+    """Fraction of queries whose prediction equals the reference's."""
+    a, b = np.asarray(predictions).ravel(), np.asarray(reference).ravel()
+    if a.shape != b.shape or a.size == 0:
+        raise ValidationError(f"cannot compare {a.size} predictions with {b.size} reference predictions.")
+    return float(np.mean(a == b))
+
+
+def spike_count_correlation(counts: np.ndarray, reference: np.ndarray) -> float | None:
+    """Pearson's r of the flattened spike counts and the reference's; ``None`` when either is constant."""
+    a = np.asarray(counts, dtype=np.float64).ravel()
+    b = np.asarray(reference, dtype=np.float64).ravel()
+    if a.shape != b.shape or a.size == 0:
+        raise ValidationError(
+            f"cannot correlate output spike counts of shape {np.shape(counts)} with the reference's {np.shape(reference)}."
+        )
+    if np.ptp(a) == 0 or np.ptp(b) == 0:
+        return None
+    return float(np.corrcoef(a, b)[0, 1])
+
+
+def _finite_or_none(value: Any) -> float | None:
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def _check_result(model: str, backend: str, result: Any) -> dict[str, Any]:
+    """Validate what ``infer`` returned; one sentence naming the model, backend and key otherwise."""
+    where = f"model {model!r} inference on {backend!r}"
+    if not isinstance(result, Mapping):
+        raise ValidationError(f"{where} returned a {type(result).__name__}, expected a dict.")
+    for key in ("metrics", "predictions", "output_counts", "seconds_per_query"):
+        if key not in result:
+            raise ValidationError(f"{where} returned no {key!r}.")
+    if not isinstance(result["metrics"], Mapping):
+        raise ValidationError(f"{where} returned metrics of type {type(result['metrics']).__name__}, expected a dict.")
+    predictions = np.asarray(result["predictions"])
+    counts = np.asarray(result["output_counts"])
+    if predictions.ndim != 1 or predictions.size == 0 or not np.issubdtype(predictions.dtype, np.integer):
+        raise ValidationError(f"{where} returned predictions of shape {predictions.shape}, expected one int per query.")
+    if counts.ndim != 2 or counts.shape[0] != predictions.size:
+        raise ValidationError(
+            f"{where} returned output counts of shape {counts.shape}, expected ({predictions.size}, outputs)."
+        )
+    seconds = _finite_or_none(result["seconds_per_query"])
+    if seconds is None or seconds < 0:
+        raise ValidationError(f"{where} returned seconds_per_query {result['seconds_per_query']!r}, expected a number >= 0.")
+    activity = result.get("activity")
+    if activity is not None and not isinstance(activity, Mapping):
+        raise ValidationError(f"{where} returned activity of type {type(activity).__name__}, expected a dict.")
+    return {
+        "metrics": {str(k): _finite_or_none(v) for k, v in result["metrics"].items()},
+        "predictions": predictions.astype(np.int64),
+        "output_counts": counts,
+        "seconds_per_query": seconds,
+        "activity": None if activity is None else dict(activity),
+    }
+
+
+def _energy(activity: Mapping[str, Any] | None, spec: Any, network: Any, seed: int) -> dict[str, Any]:
+    """Energy per inference on ``spec`` from one backend's per-inference activity."""
+    from neurovpr.hardware.energy import REQUIRED_COUNTS, estimate_energy
+
+    if activity is None:
+        return {"hardware": spec.name, "joules_per_inference": None, "reason": "the backend counted no activity"}
+    missing = [k for k in REQUIRED_COUNTS if k not in activity]
+    if missing:
+        return {"hardware": spec.name, "joules_per_inference": None, "reason": f"the activity lacks the count {missing[0]!r}"}
+    counts = {k: float(v) for k, v in activity.items() if k in (*REQUIRED_COUNTS, "plastic_updates", "spikes_between_chips")}
+    counts["dt_ms"] = activity.get("dt_ms")
+    if isinstance(activity.get("population_spikes"), Mapping):
+        counts["population_spikes"] = dict(activity["population_spikes"])
+    report = estimate_energy(counts, spec, network=network, seed=seed)
+    full = report.as_dict()
+    return {k: full[k] for k in ("hardware", "joules_per_inference", "breakdown", "seconds_per_inference", "chips",
+                                 "cores", "not_estimated", "notes")}  # fmt: skip
+
+
+def _run_network(run_dir: Path) -> Any:
+    """The run's network (for the partition behind the energy estimate), or ``None`` when it has none."""
+    path = run_dir / _NETWORK_FILE
+    if not path.is_file():
+        return None
+    from neurovpr.serialization import load
+
+    return load(path)
+
+
+def compare_model(
+    run_dir: str | Path,
+    data: str | Path | None,
+    backends: str | Sequence[str],
+    *,
+    hardware: str | None = None,
+    seed: int = 0,
+    progress: bool = True,
+    model: modelapi.ModelPlugin | None = None,
+) -> Comparison:
+    """Run the model of ``run_dir`` on every backend of ``backends`` and compare them.
+
+    Parameters
+    ----------
+    run_dir
+        A run directory written by ``neurovpr train`` (``run.json`` names the model).
+    data
+        The dataset whose query set is run (``None``: the one the model trained on, where it knows it).
+    backends
+        Backend names, as a list or the ``--backends`` text ``"A,B,..."``.
+    hardware
+        A hwspec name or file: estimate energy per inference on it from each backend's activity.
+    seed
+        Seed passed to the model's inference (Poisson input, random connectors).
+    progress
+        Show a progress bar over the backends.
+    model
+        The model's plugin; by default the installed model named in ``run.json``
+        (:func:`neurovpr.modelapi.get_model`).
+
+    Raises
+    ------
+    ValidationError, BackendUnavailableError
+        For a bad run directory, dataset, hwspec or backend list, and when the model
+        does not implement inference (before any backend runs).
+    """
+    names = parse_backends(backends)
+    run_dir = Path(run_dir)
+    info = modelapi.read_run_info(run_dir)
+    plugin = modelapi.get_model(info["model"]) if model is None else model
+    if not isinstance(plugin, modelapi.ModelPlugin):
+        raise ValidationError(f"model must be a neurovpr ModelPlugin, got {type(plugin).__name__}.")
+    if type(plugin).infer is modelapi.ModelPlugin.infer:
+        raise UnsupportedFeatureError(f"Model {info['model']!r} does not implement inference, so it cannot be compared.")
+    spec = network = None
+    if hardware is not None:
+        from neurovpr.hardware.hwspec import load_hwspec
+
+        spec = load_hwspec(hardware)
+        network = _run_network(run_dir)
+    trained_on = info.get("backend") if isinstance(info.get("backend"), str) else None
+    data_path = None if data is None else Path(data)
+    if data_path is not None and not data_path.exists():
+        raise ValidationError(f"dataset path {str(data)!r} does not exist.")
+
+    bar: Any = None
+    if progress:
+        from tqdm.auto import tqdm
+
+        bar = tqdm(total=len(names), desc="compare", unit="backend")
+    rows: list[BackendComparison] = []
+    ref: BackendComparison | None = None
+    try:
+        for name in names:
+            if bar is not None:
+                bar.set_postfix_str(name)
+            row = _one_backend(plugin, info["model"], run_dir, data_path, name, seed, trained_on, ref, spec, network)
+            if ref is None and row.ran:
+                ref = row
+            rows.append(row)
+            if bar is not None:
+                bar.update(1)
+    finally:
+        if bar is not None:
+            bar.close()
+    return Comparison(
+        model=str(info["model"]),
+        run=str(run_dir),
+        data=None if data_path is None else str(data_path),
+        trained_on=trained_on,
+        hardware=None if spec is None else spec.name,
+        rows=tuple(rows),
+    )
+
+
+def _one_backend(
+    plugin: modelapi.ModelPlugin,
+    model: str,
+    run_dir: Path,
+    data: Path | None,
+    name: str,
+    seed: int,
+    trained_on: str | None,
+    ref: BackendComparison | None,
+    spec: Any,
+    network: Any,
+) -> BackendComparison:
+    refusal = availability_refusal(name)
+    if refusal is not None:
+        return BackendComparison(backend=name, refused=refusal)
+    try:
+        raw = plugin.infer(run_dir, data, name, seed=seed)
+    except (UnsupportedFeatureError, BackendUnavailableError) as exc:
+        return BackendComparison(backend=name, refused=str(exc))
+    except NotImplementedError as exc:  # the model's own "not on this backend"
+        return BackendComparison(backend=name, refused=str(exc) or f"Model {model!r} has no inference on {name!r}.")
+    res = _check_result(model, name, raw)
+    agree = corr = None
+    if ref is None:
+        agree = 1.0
+        corr = spike_count_correlation(res["output_counts"], res["output_counts"])
+    else:
+        assert ref.predictions is not None and ref.output_counts is not None
+        if res["predictions"].size != ref.predictions.size:
+            raise ValidationError(
+                f"model {model!r} answered {res['predictions'].size} queries on {name!r} but "
+                f"{ref.predictions.size} on {ref.backend!r}."
+            )
+        agree = agreement(res["predictions"], ref.predictions)
+        corr = spike_count_correlation(res["output_counts"], ref.output_counts)
+    energy = None if spec is None else _energy(res["activity"], spec, network, seed)
+    return BackendComparison(
+        backend=name,
+        metrics=res["metrics"],
+        agreement=agree,
+        spike_count_correlation=corr,
+        seconds_per_query=res["seconds_per_query"],
+        energy=energy,
+        deployed_from=trained_on if trained_on is not None and trained_on != name else None,
+        predictions=res["predictions"],
+        output_counts=res["output_counts"],
+    )
+
+
+def _bars(ax: Any, x: np.ndarray, values: list[float | None], color: str, ylabel: str) -> None:
+    """One bar per backend; a log axis when the values span more than a factor of 20."""
+    heights = np.array([np.nan if v is None else v for v in values], dtype=np.float64)
+    ax.bar(x, heights, 0.6, color=color)
+    ax.set_ylabel(ylabel)
+    positive = heights[np.isfinite(heights) & (heights > 0)]
+    if positive.size and positive.max() > 20 * positive.min():
+        ax.set_yscale("log")
+
+
+def plot_comparison(comparison: Comparison, path: str | Path) -> Path:
+    """Bar charts of accuracy, agreement and correlation, time per query and (with a hwspec) energy.
+
+    Refused backends keep their place on the axis, marked "refused". Returns the PNG's path.
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    path = Path(path)
+    if path.suffix.lower() != ".png":
+        raise ValidationError(f"plot path {path} must end in .png.")
+    rows = comparison.rows
+    x = np.arange(len(rows))
+    labels = [r.backend for r in rows]
+    panels = 4 if comparison.hardware is not None else 3
+    fig = Figure(figsize=(4.2 * panels, 4.0), dpi=100)
+    FigureCanvasAgg(fig)
+    axes = [fig.add_subplot(1, panels, i + 1) for i in range(panels)]
+
+    def grouped(ax: Any, series: dict[str, list[float | None]], ylabel: str) -> None:
+        width = 0.8 / max(len(series), 1)
+        for k, (label, values) in enumerate(series.items()):
+            heights = [np.nan if v is None else v for v in values]
+            ax.bar(x - 0.4 + width * (k + 0.5), heights, width, label=label)
+        ax.set_ylabel(ylabel)
+        known = [v for vals in series.values() for v in vals if v is not None]
+        ax.set_ylim(min([0.0, *known]), 1.05)
+        if series:
+            ax.legend(fontsize=7, loc="lower right")
+
+    metrics = comparison.shown_metrics()
+    grouped(axes[0], {m: [r.metrics.get(m) if r.ran else None for r in rows] for m in metrics}, "accuracy")
+    axes[0].set_title(f"{comparison.model}: accuracy")
+    ref = comparison.reference_backend or "-"
+    grouped(
+        axes[1],
+        {
+            "prediction agreement": [r.agreement for r in rows],
+            "spike-count r": [r.spike_count_correlation for r in rows],
+        },
+        "agreement / Pearson r",
+    )
+    axes[1].set_title(f"against {ref}")
+    secs = [r.seconds_per_query if r.ran else None for r in rows]
+    _bars(axes[2], x, secs, "tab:gray", "seconds per query")
+    axes[2].set_title("time per query (measured)")
+    if comparison.hardware is not None:
+        joules = [(r.energy or {}).get("joules_per_inference") if r.ran else None for r in rows]
+        _bars(axes[3], x, joules, "tab:green", "joules per inference (estimated)")
+        axes[3].set_title(f"energy on {comparison.hardware}")
+    for ax in axes:
+        ax.set_xticks(x)
+        ax.set_xticklabels(labels, rotation=30, ha="right", fontsize=8)
+        for i, row in enumerate(rows):
+            if not row.ran:
+                ax.text(i, 0.5, "refused", transform=ax.get_xaxis_transform(), ha="center", va="center",
+                        rotation=90, color="tab:red", fontsize=8)  # fmt: skip
+    fig.suptitle(f"{comparison.model} on {len(rows)} backends ({comparison.run})", fontsize=9)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{time.monotonic_ns()}.tmp.png")
+    try:
+        fig.savefig(tmp, format="png")
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path
