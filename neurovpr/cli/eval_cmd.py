@@ -6,30 +6,39 @@ import argparse
 import json
 from pathlib import Path
 
+from neurovpr.cli.main import _Parser
 from neurovpr.modelapi import get_model, model_names, read_run_info
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    """Register the subcommand; each installed model adds its own options."""
-    p = sub.add_parser("eval", help="evaluate a trained run")
+def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--run", type=Path, required=True, help="run directory written by train")
     p.add_argument("--data", type=Path, default=None, help="dataset (default: the one trained on)")
     p.add_argument("--backend", default=None, help="backend to evaluate on (default: the training backend)")
     p.add_argument("--seq-len", type=int, default=1, help="sequence length for sequence matching (default 1)")
     p.add_argument("--json", action="store_true", help="print exactly one JSON object")
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Register the subcommand; every installed model's options are listed in ``--help``."""
+    p = sub.add_parser("eval", help="evaluate a trained run", conflict_handler="resolve")
+    _common(p)
     for name in model_names():
-        group = p.add_argument_group(f"{name} options")
         try:
-            get_model(name).add_eval_arguments(group)  # type: ignore[arg-type]
+            get_model(name).add_eval_arguments(p.add_argument_group(f"{name} options"))  # type: ignore[arg-type]
         except Exception:
             continue
     p.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Dispatch to the model named in the run directory."""
+    """Dispatch to the model named in the run directory, parsing that model's options only."""
     info = read_run_info(args.run)
-    result = get_model(info["model"]).evaluate(args, info)
+    model = get_model(info["model"])
+    parser = _Parser(prog="neurovpr eval")
+    _common(parser)
+    model.add_eval_arguments(parser.add_argument_group(f"{info['model']} options"))  # type: ignore[arg-type]
+    args = parser.parse_args(args.argv[1:])
+    result = model.evaluate(args, info)
     if args.json:
         print(json.dumps(result))
     else:

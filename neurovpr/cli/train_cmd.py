@@ -4,15 +4,13 @@ from __future__ import annotations
 
 import argparse
 import json
-import sys
 from pathlib import Path
 
-from neurovpr.modelapi import get_model, model_names
+from neurovpr.cli.main import _Parser
+from neurovpr.modelapi import ModelPlugin, get_model, model_names
 
 
-def add_parser(sub: argparse._SubParsersAction) -> None:
-    """Register the subcommand; each installed model adds its own options."""
-    p = sub.add_parser("train", help="train a model and write a run directory")
+def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--model", required=True, choices=model_names() or None, help="which model")
     p.add_argument("--data", type=Path, required=True, help="dataset path (or a recording for mbsnn)")
     p.add_argument("--out", type=Path, required=True, help="run directory to write")
@@ -21,21 +19,40 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scheduler", default=None, help="Dask scheduler address for distributed training")
     p.add_argument("--resume", action="store_true", help="skip parts already finished in --out")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+
+
+def add_parser(sub: argparse._SubParsersAction) -> None:
+    """Register the subcommand; every installed model's options are listed in ``--help``."""
+    p = sub.add_parser("train", help="train a model and write a run directory", conflict_handler="resolve")
+    _common(p)
     for name in model_names():
-        group = p.add_argument_group(f"{name} options")
         try:
-            get_model(name).add_train_arguments(group)  # type: ignore[arg-type]
+            get_model(name).add_train_arguments(p.add_argument_group(f"{name} options"))  # type: ignore[arg-type]
         except Exception:
             continue
     p.set_defaults(handler=run)
 
 
+def model_arguments(args: argparse.Namespace) -> tuple[ModelPlugin, argparse.Namespace]:
+    """Parse the command line again with the chosen model's options only.
+
+    Models may declare the same flag with different defaults (``--dt``); the listing
+    parser accepts them all, and this parse gives the chosen model its own defaults.
+    """
+    model = get_model(args.model)
+    parser = _Parser(prog="neurovpr train")
+    _common(parser)
+    model.add_train_arguments(parser.add_argument_group(f"{args.model} options"))  # type: ignore[arg-type]
+    return model, parser.parse_args(args.argv[1:])
+
+
 def run(args: argparse.Namespace) -> int:
     """Dispatch to the chosen model."""
-    summary = get_model(args.model).train(args)
-    if args.json:
+    model, margs = model_arguments(args)
+    summary = model.train(margs)
+    if margs.json:
         print(json.dumps(summary))
     else:
         for key, value in summary.items():
-            print(f"{key}: {value}", file=sys.stdout)
+            print(f"{key}: {value}")
     return 0
