@@ -137,6 +137,10 @@ class LoCSNetPlugin(ModelPlugin):
             params, calibration["spiking"] = calibrate_spiking(
                 arch, params, spiking, images[pick], drive=settings.place_drive, active=settings.active_places,
                 seed=args.seed, progress=True)
+        if weight_format is not None:  # the calibration moved the place weights off the chip's grid
+            from .quantise import quantise_parameters
+
+            params = quantise_parameters(params, weight_format)
         t_cal = time.perf_counter() - t0
         network = to_spiking_network(arch, params, spiking, name="locsnet")
         info = {

@@ -4,6 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from sklearn.metrics import roc_auc_score
+
+from neurovpr.data.events import DAVIS346_BINNING_2020, EventStream, PNSpikes, event_frames, pn_frames, read_pn_mat
+from neurovpr.errors import ValidationError
 from neurovpr.models.route_baselines import (
     enhance_local_contrast,
     patch_normalise,
@@ -11,10 +15,6 @@ from neurovpr.models.route_baselines import (
     second_min_familiarity,
     seqslam_familiarity,
 )
-from sklearn.metrics import roc_auc_score
-
-from neurovpr.data.events import DAVIS346_BINNING_2020, EventStream, PNSpikes, event_frames, pn_frames, read_pn_mat
-from neurovpr.errors import ValidationError
 
 
 def test_pn_frames_layout_and_bins():
