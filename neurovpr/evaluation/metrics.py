@@ -156,7 +156,11 @@ def recall_at_n(
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
 class PRCurve:
-    """A precision-recall curve (scikit-learn's point order) and its summary numbers."""
+    """A precision-recall curve, points in order of increasing acceptance threshold.
+
+    ``precision[0] = 1, recall[0] = 0`` is the point where no query is accepted;
+    ``thresholds[k]`` is the distance threshold of point ``k + 1``.
+    """
 
     precision: np.ndarray
     recall: np.ndarray
@@ -179,24 +183,27 @@ class PRCurve:
 
     @property
     def recall_at_100_precision(self) -> float:
-        """Highest recall among the points with precision 1."""
-        exact = self.precision >= 1.0
-        return float(self.recall[exact].max()) if exact.any() else 0.0
+        """Highest recall among the points with precision 1 other than the no-acceptance point."""
+        exact = self.precision[1:] >= 1.0
+        return float(self.recall[1:][exact].max()) if exact.any() else 0.0
 
 
 def precision_recall(distances: np.ndarray, ground_truth: GroundTruthLike = None, *, tolerance: int = 0) -> PRCurve:
-    """Precision-recall curve of accepting each query's best match when its distance is below a threshold.
+    """Precision-recall curve of accepting each query's best match when its distance is at most a threshold.
 
-    Each query (with a ground-truth match) proposes its closest reference; a
-    proposal is a true positive when that reference matches, a false positive when it
-    does not. Sweeping the acceptance threshold over the best-match distances gives
-    precision = TP / accepted and recall = TP / (queries whose best match is correct),
-    as ``sklearn.metrics.precision_recall_curve`` computes with the negated distance as
-    the score. Accepting every query gives recall 1 at precision = R@1, so
-    precision at 100% recall is at least R@1.
+    The definition of place recognition's papers, and of the Modular SNN authors'
+    published evaluation (QVPR/VPRSNN, ``get_precision_recall_f1_score``): each query
+    with a ground-truth match proposes its closest reference; at threshold ``t`` the
+    queries whose best distance is at most ``t`` are accepted. An accepted query whose
+    proposal matches is a true positive (TP), one whose proposal does not is a false
+    positive (FP), and a rejected query is a false negative (FN), since every query has
+    a place it should have been matched to. Precision = TP / (TP + FP), recall =
+    TP / (TP + FN); the thresholds are the distinct best-match distances.
+
+    Accepting every query gives recall 1 at precision = R@1, so precision at 100%
+    recall equals R@1 (with the same tie rule). Queries without a ground-truth match
+    are left out.
     """
-    from sklearn.metrics import precision_recall_curve
-
     d = check_distances(distances)
     gt = ground_truth_matrix(ground_truth, d.shape, tolerance)
     has = gt.any(axis=0)
@@ -204,11 +211,19 @@ def precision_recall(distances: np.ndarray, ground_truth: GroundTruthLike = None
         raise ValidationError("a precision-recall curve needs at least one query with a matching reference.")
     idx, best = best_matches(d)
     correct = gt[idx, np.arange(d.shape[1])][has]
-    score = -best[has]
-    if not correct.any():
-        return PRCurve(precision=np.array([0.0, 1.0]), recall=np.array([0.0, 0.0]), thresholds=np.array([score.max()]))
-    precision, recall, thresholds = precision_recall_curve(correct.astype(int), score)
-    return PRCurve(precision=precision, recall=recall, thresholds=thresholds)
+    dist = best[has]
+    order = np.argsort(dist, kind="stable")
+    dist, correct = dist[order], correct[order]
+    last = np.r_[dist[1:] != dist[:-1], True]  # the last query of each run of equal distances
+    tp = np.cumsum(correct)[last].astype(np.float64)
+    accepted = (np.arange(dist.size) + 1)[last].astype(np.float64)
+    fn = dist.size - accepted
+    with np.errstate(divide="ignore", invalid="ignore"):
+        precision = tp / accepted
+        recall = np.where(tp > 0, tp / (tp + fn), 0.0)
+    return PRCurve(
+        precision=np.r_[1.0, precision], recall=np.r_[0.0, recall], thresholds=dist[last].astype(np.float64)
+    )
 
 
 def roc(labels: np.ndarray, scores: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -68,32 +68,45 @@ def test_best_matches_and_correct_top1():
     assert correct_top1(D).tolist() == [True, False, False, True]
 
 
-def test_precision_recall_hand_example_and_sklearn():
-    # best distances 0.1, 0.2, 0.3, 0.4 with correctness 1, 0, 1, 1
+def test_precision_recall_hand_example():
+    # best distances 0.1, 0.2, 0.3, 0.4 with correctness 1, 0, 1, 1; a rejected query is a false negative
     d = np.array([[0.1, 0.9, 0.9, 0.9], [0.9, 0.9, 0.9, 0.4], [0.9, 0.2, 0.3, 0.9], [0.9, 0.9, 0.9, 0.9]])
     gt = np.eye(4, dtype=bool)
     gt[3, 3], gt[1, 3] = False, True  # query 3 matches ref 1, its best
     curve = precision_recall(d, gt)
-    assert curve.precision_at_100_recall == pytest.approx(0.75)
-    assert curve.recall_at_100_precision == pytest.approx(1 / 3)
-    assert curve.auc == pytest.approx(1 / 3 + (0.5 + 2 / 3) / 6 + (2 / 3 + 0.75) / 6)
-    p, r, _ = skm.precision_recall_curve([1, 0, 1, 1], [-0.1, -0.2, -0.3, -0.4])
-    np.testing.assert_allclose(curve.precision, p)
-    np.testing.assert_allclose(curve.recall, r)
-    assert curve.auc == pytest.approx(skm.auc(r, p))
+    np.testing.assert_allclose(curve.precision, [1.0, 1.0, 0.5, 2 / 3, 0.75])
+    np.testing.assert_allclose(curve.recall, [0.0, 0.25, 1 / 3, 2 / 3, 1.0])
+    np.testing.assert_allclose(curve.thresholds, [0.1, 0.2, 0.3, 0.4])
+    assert curve.precision_at_100_recall == pytest.approx(0.75)  # = R@1
+    assert curve.recall_at_100_precision == pytest.approx(0.25)
+    assert curve.auc == pytest.approx(0.25 + 0.75 / 12 + (0.5 + 2 / 3) / 6 + (2 / 3 + 0.75) / 6)
+    assert curve.auc == pytest.approx(skm.auc(curve.recall, curve.precision))
 
 
-def test_precision_recall_random_against_sklearn():
+def test_precision_recall_ties_accept_together():
+    # queries 0 and 1 share the best distance 0.2: one threshold accepts both
+    d = np.array([[0.2, 0.5, 0.9], [0.5, 0.9, 0.9], [0.9, 0.2, 0.4]])
+    curve = precision_recall(d)  # query 1's best is ref 2 (wrong); query 2's best is ref 2 (right)
+    np.testing.assert_allclose(curve.precision, [1.0, 0.5, 2 / 3])
+    np.testing.assert_allclose(curve.recall, [0.0, 0.5, 1.0])
+
+
+def test_precision_recall_random_p100r_equals_r1():
     rng = np.random.default_rng(0)
     d = rng.random((50, 40))
     d[np.arange(40), np.arange(40)] -= rng.random(40) * 0.8  # make about half the queries correct
     curve = precision_recall(d, np.eye(50, 40, dtype=bool))
     idx, best = best_matches(d)
-    y = (idx == np.arange(40)).astype(int)
-    p, r, _ = skm.precision_recall_curve(y, -best)
+    y = idx == np.arange(40)
     assert 0 < y.sum() < 40
-    assert curve.auc == pytest.approx(skm.auc(r, p))
-    assert curve.precision_at_100_recall >= y.mean()
+    assert curve.precision_at_100_recall == pytest.approx(y.mean())
+    assert curve.precision_at_100_recall == pytest.approx(recall_at_n(d, np.eye(50, 40, dtype=bool), (1,))[1])
+    assert np.all(np.diff(curve.recall) >= 0) and curve.recall[-1] == 1.0
+    # brute force: every threshold from the definition
+    for t, p, r in zip(curve.thresholds, curve.precision[1:], curve.recall[1:]):
+        acc = best <= t
+        tp, fp, fn = np.sum(acc & y), np.sum(acc & ~y), np.sum(~acc)
+        assert p == pytest.approx(tp / (tp + fp)) and r == pytest.approx(tp / (tp + fn))
 
 
 def test_no_correct_match_gives_zero_curve():
