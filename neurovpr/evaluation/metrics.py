@@ -221,9 +221,7 @@ def precision_recall(distances: np.ndarray, ground_truth: GroundTruthLike = None
     with np.errstate(divide="ignore", invalid="ignore"):
         precision = tp / accepted
         recall = np.where(tp > 0, tp / (tp + fn), 0.0)
-    return PRCurve(
-        precision=np.r_[1.0, precision], recall=np.r_[0.0, recall], thresholds=dist[last].astype(np.float64)
-    )
+    return PRCurve(precision=np.r_[1.0, precision], recall=np.r_[0.0, recall], thresholds=dist[last].astype(np.float64))
 
 
 def roc(labels: np.ndarray, scores: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

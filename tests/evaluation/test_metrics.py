@@ -103,7 +103,7 @@ def test_precision_recall_random_p100r_equals_r1():
     assert curve.precision_at_100_recall == pytest.approx(recall_at_n(d, np.eye(50, 40, dtype=bool), (1,))[1])
     assert np.all(np.diff(curve.recall) >= 0) and curve.recall[-1] == 1.0
     # brute force: every threshold from the definition
-    for t, p, r in zip(curve.thresholds, curve.precision[1:], curve.recall[1:]):
+    for t, p, r in zip(curve.thresholds, curve.precision[1:], curve.recall[1:], strict=True):
         acc = best <= t
         tp, fp, fn = np.sum(acc & y), np.sum(acc & ~y), np.sum(~acc)
         assert p == pytest.approx(tp / (tp + fp)) and r == pytest.approx(tp / (tp + fn))
