@@ -9,6 +9,13 @@ state object, the global it guards.
 
 ``reset()`` rebuilds the network (PyNN's own ``reset`` cannot clear NEST's spikes
 in flight and restores Brian2's initial weights), carrying the current weights over.
+
+``statistics()`` counts from the recorded spikes, as the reference backend defines the
+counts: steps, neuron updates (steps x non-source neurons), spikes of every population,
+synaptic events (each spike times its neuron's number of outgoing connections) and
+plastic updates (each spike's arrivals on plastic connections plus each postsynaptic
+spike times its number of incoming plastic connections; the reference backend leaves
+out updates whose trace is exactly zero, so this is an upper bound on its count).
 """
 
 from __future__ import annotations
@@ -93,6 +100,9 @@ class PyNNSimulation(Simulation):
         self._frozen: dict[str, dict[Any, Any]] | None = None
         self._offset = time_offset(simulator, dt)
         self._late_spikes = 0
+        self._done = {"steps": 0, "neuron_updates": 0, "spikes": 0, "synaptic_events": 0, "plastic_updates": 0}
+        self._n_neurons = sum(p.size for p in self._network.populations.values() if not p.is_source)
+        self._degrees = self._connection_degrees()
         weights = {name: conns.weight.copy() for name, conns in self._plan.connections.items()}
         self._build(weights)
 
@@ -170,6 +180,8 @@ class PyNNSimulation(Simulation):
             else:
                 self._sim.run(n_steps * self._dt)
         self._steps += n_steps
+        self._done["steps"] += n_steps
+        self._done["neuron_updates"] += n_steps * self._n_neurons
         self._first_run = False
         self._cache.clear()
 
@@ -236,6 +248,8 @@ class PyNNSimulation(Simulation):
 
     def _reset(self) -> None:
         self._check_live()
+        for key, value in self._live_statistics().items():
+            self._done[key] += value
         weights = {name: self._weights(name) for name in self._network.projections}
         with quiet():
             self._sim.end()
@@ -412,6 +426,36 @@ class PyNNSimulation(Simulation):
 
     def _learned_state(self, population: str) -> dict[str, np.ndarray]:
         return {}
+
+    # -- activity counts ------------------------------------------------------
+    def _connection_degrees(self) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+        """Per population: outgoing connections, outgoing plastic connections, incoming plastic connections."""
+        sizes = {name: pop.size for name, pop in self._network.populations.items()}
+        out = {name: (np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int64)) for name, n in sizes.items()}
+        for name, proj in self._network.projections.items():
+            conns = self._plan.connections[name]
+            out[proj.pre][0][:] += np.bincount(conns.pre, minlength=sizes[proj.pre])
+            if proj.synapse.plastic:
+                out[proj.pre][1][:] += np.bincount(conns.pre, minlength=sizes[proj.pre])
+                out[proj.post][2][:] += np.bincount(conns.post, minlength=sizes[proj.post])
+        return out
+
+    def _live_statistics(self) -> dict[str, int]:
+        """Spikes, synaptic events and plastic updates since the last (re)build, from the recorded spikes."""
+        spikes = events = plastic = 0
+        if self._steps == 0:
+            return {"spikes": 0, "synaptic_events": 0, "plastic_updates": 0}
+        for name in self._network.populations:
+            _, idx = self._all_spikes(name)
+            out_all, out_plastic, in_plastic = self._degrees[name]
+            spikes += int(idx.size)
+            events += int(out_all[idx].sum())
+            plastic += int(out_plastic[idx].sum() + in_plastic[idx].sum())
+        return {"spikes": spikes, "synaptic_events": events, "plastic_updates": plastic}
+
+    def _statistics(self) -> dict[str, int]:
+        live = self._live_statistics()
+        return {key: int(self._done[key] + live.get(key, 0)) for key in self._done}
 
     # -- NEST's deferred potentiation -----------------------------------------
     def _nest_pending(self, part: BuiltPart, weights: np.ndarray) -> np.ndarray:

@@ -203,11 +203,12 @@ def test_nest_spikes_equal_reference() -> None:
     _needs(NEST)
     reference = pytest.importorskip("neurovpr.backends.reference").BACKEND
     net = _input_network()
-    trains = {}
+    trains, stats = {}, {}
     for backend in (reference, NEST):
         sim = backend.compile(net, dt=0.1, seed=4)
         sim.run(120.0)
         trains[backend.name] = {pop: sim.spike_trains(pop) for pop in ("inp", "exc", "inh")}
+        stats[backend.name] = sim.statistics()
         if backend is NEST:
             np.testing.assert_array_equal(sim.connections("inp->exc")[0], expand(net, "inp->exc", dt=0.1, seed=4).pre)
             np.testing.assert_allclose(
@@ -218,6 +219,22 @@ def test_nest_spikes_equal_reference() -> None:
     for pop in ("inp", "exc", "inh"):
         np.testing.assert_array_equal(trains["pynn"][pop][1], trains["reference"][pop][1], err_msg=pop)
         np.testing.assert_allclose(trains["pynn"][pop][0], trains["reference"][pop][0], rtol=0, atol=1e-9)
+    # the same spikes give the same activity counts (static synapses: spikes x out-degree)
+    assert stats["pynn"] == stats["reference"] and stats["pynn"]["synaptic_events"] > 0
+
+
+def test_nest_statistics_count_plastic_updates_and_survive_reset() -> None:
+    """One pre and one post spike on one plastic connection: 2 plastic updates; reset() keeps the totals."""
+    _needs(NEST)
+    sim = NEST.compile(_pair_network([10.0], [20.0]), dt=0.1, seed=1)
+    sim.run(40.0)
+    first = sim.statistics()
+    assert first == {"steps": 400, "neuron_updates": 400, "spikes": 3, "synaptic_events": 2, "plastic_updates": 2}
+    sim.reset()
+    sim.run(40.0)
+    assert sim.statistics() == {key: 2 * value for key, value in first.items()}
+    sim.close()
+    assert sim.statistics()["spikes"] == 6
 
 
 def test_nest_stdp_pair_and_deferred_potentiation() -> None:
