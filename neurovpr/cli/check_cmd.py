@@ -27,6 +27,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     src.add_argument("--file", metavar="NETWORK", help="a saved network (.h5) or a NIR graph (.nir)")
     p.add_argument("--hw", required=True, metavar="NAME", help="hwspec name (spinn5, kapoho-bay, loihi2) or .toml file")
     p.add_argument("--seed", type=int, default=0, help="seed of random connectors without their own (default 0)")
+    p.add_argument("--dt", type=float, default=None, metavar="MS",
+                   help="time step on the chip (default: the hwspec's; sPyNNaker splits cores below 1 ms)")
     p.add_argument("--plot", metavar="PNG", help="write the per-core utilisation plot here "
                    "(default with --run: RUN_DIR/utilisation_<hw>.png)")
     p.add_argument("--json", action="store_true", help="print one JSON object")
@@ -64,7 +66,7 @@ def run(args: argparse.Namespace) -> int:
 
     spec = load_hwspec(args.hw)
     network = load_network_arg(args.run, args.file)
-    report = check_network(network, spec, seed=args.seed)
+    report = check_network(network, spec, seed=args.seed, dt=args.dt)
     plot = args.plot
     if plot is None and args.run is not None:
         plot = str(Path(args.run) / f"utilisation_{spec.name}.png")

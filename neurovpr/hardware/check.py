@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -66,7 +68,7 @@ class CheckReport:
             out.append(
                 {
                     "name": name,
-                    "neurons": sum(c.neurons for c in cores) if cores[0].kind != "delays" else 0,
+                    "neurons": sum(c.neurons for c in cores) if cores[0].kind not in ("delays", "synapses") else 0,
                     "cores": len(cores),
                     "kind": cores[0].kind,
                     "max_usage": usage_max,
@@ -122,7 +124,7 @@ class CheckReport:
         return "\n".join(lines)
 
 
-def check_network(network: Network, hardware: str | HwSpec, *, seed: int = 0) -> CheckReport:
+def check_network(network: Network, hardware: str | HwSpec, *, seed: int = 0, dt: float | None = None) -> CheckReport:
     """Partition ``network`` onto ``hardware`` (a hwspec name, path or object) and report the fit.
 
     Parameters
@@ -133,6 +135,10 @@ def check_network(network: Network, hardware: str | HwSpec, *, seed: int = 0) ->
         ``"spinn5"``, ``"kapoho-bay"``, ``"loihi2"``, a ``.toml`` path, or a loaded spec.
     seed
         Seed of random connectors that have none of their own.
+    dt
+        Time step (ms) the network runs at on the chip; default the hwspec's
+        ``[timing].time_step_ms``. Delays are counted in these steps, and sPyNNaker
+        splits neuron and synapse cores below 1 ms.
 
     Returns
     -------
@@ -142,6 +148,10 @@ def check_network(network: Network, hardware: str | HwSpec, *, seed: int = 0) ->
     if not isinstance(network, Network):
         raise ValidationError(f"check: expected a neurovpr Network, got {type(network).__name__}.")
     spec = hardware if isinstance(hardware, HwSpec) else load_hwspec(hardware)
+    if dt is not None:
+        if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not math.isfinite(dt) or dt <= 0:
+            raise ValidationError(f"check: time step dt must be a positive number of ms, got {dt!r}.")
+        spec = dataclasses.replace(spec, timing=dataclasses.replace(spec.timing, time_step_ms=float(dt)))
     return CheckReport(network=network.name, spec=spec, partition=partition(network, spec, seed=seed),
                        sizes={name: pop.size for name, pop in network.populations.items()})
 

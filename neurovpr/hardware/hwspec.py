@@ -108,7 +108,8 @@ class SynapseEncoding:
 
 @dataclass(**_KW)
 class SpinnakerRules:
-    """``[spinnaker]``: sPyNNaker's slicing and synaptic-matrix constants, board geometry."""
+    """``[spinnaker]``: sPyNNaker's slicing and synaptic-matrix constants, board geometry, and
+    the rules for separate neuron and synapse cores at time steps below ``split_core_below_ms``."""
 
     poisson_sources_per_core: int = _f("int", low=1)
     array_sources_per_core: int = _f("int", low=0)
@@ -128,6 +129,12 @@ class SpinnakerRules:
     system_cores_per_chip: int = _f("int", low=0)
     ethernet_chip_extra_cores: int = _f("int", low=0)
     sdram_per_chip_bytes: int = _f("int", low=1)
+    split_core_below_ms: float = _f("float", low=0.0)
+    spikes_per_second: float = _f("float", low=0.0)
+    static_synapses_per_second: int = _f("int", low=1)
+    stdp_synapses_per_second: int = _f("int", low=1)
+    scamp_cores_per_chip: int = _f("int", low=0)
+    time_scale_step_us: int = _f("int", low=1)
 
 
 @dataclass(**_KW)

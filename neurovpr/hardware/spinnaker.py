@@ -23,6 +23,15 @@ aligned by the master population table). Cores are then placed on the board's ch
 the order of PACMAN's ``ApplicationPlacer`` (chips filled core by core, moving to
 neighbouring chips of the current board, new start chips in x-then-y order).
 
+Below a 1 ms step (``split_core_below_ms``) sPyNNaker gives each population with
+synaptic input separate cores (``SplitterPopulationVertexNeuronsSynapses``): per slice
+one neuron core fed by as many synapse cores as ``PopulationVertex.n_synapse_cores_required``
+estimates from the synaptic events per second (every source assumed to fire at the
+configured rate) and what one synapse core processes (static or STDP), plus the cores of
+any one-to-one Poisson source simulated next to it; these cores share one chip. The lead
+synapse core holds the synaptic matrix. Populations without synaptic input keep a
+combined core.
+
 All counts and sizes come from the hwspec (``[core]``, ``[spinnaker]``).
 """
 
@@ -132,28 +141,40 @@ def _longest_delay(network: Network, proj: Projection, spec: HwSpec, seed: int) 
 
 
 def _row_lengths(network: Network, proj: Projection, spec: HwSpec, seed: int, n_post_atoms: int,
-                 max_supported_ms: float) -> list[_Rows]:
+                 max_supported_ms: float, extended: bool) -> tuple[list[_Rows], list[int]]:
     """Longest rows onto a post core of ``n_post_atoms`` (``get_max_row_info``) of each
-    sPyNNaker projection ``proj`` becomes (two for a list of signed currents).
+    sPyNNaker projection ``proj`` becomes (two for a list of signed currents), and the
+    longest row of each onto a core of the per-core maximum over all delays (the estimate
+    ``n_synapse_cores_required`` uses; none for an empty list, which sPyNNaker never gets).
 
-    Synapses with delays up to ``max_supported_ms`` go to the undelayed matrix, the others
-    to the delay-extension matrix. Explicit lists are counted per (source, post core) as
+    Synapses with delays up to ``max_supported_ms`` go to the undelayed matrix. When the
+    edge from ``proj.pre`` has a delay extension (``extended``), those from
+    ``max_supported_ms`` on are counted for the delay-extension matrix: sPyNNaker starts
+    that range at ``max_supported_ms`` plus the smallest double, which rounds back to
+    ``max_supported_ms``, so a delay of exactly that many steps counts in both. Explicit
+    lists are counted per (source, post core) as
     ``FromListConnector.get_n_connections_from_pre_vertex_maximum`` does.
     """
     step = spec.timing.time_step_ms
+    per_core = spec.core.max_neurons
     if _native(proj):
         delay = _rounded_ms(proj.synapse.delay, step) if proj.synapse.delay is not None else step
-        n = n_post_atoms if isinstance(proj.connector, AllToAllConnector) else 1
-        return [_Rows(undelayed=n, delayed=0) if delay <= max_supported_ms else _Rows(undelayed=0, delayed=n)]
+        all_to_all = isinstance(proj.connector, AllToAllConnector)
+        n = n_post_atoms if all_to_all else 1
+        rows = _Rows(undelayed=n if delay <= max_supported_ms else 0,
+                     delayed=n if extended and delay >= max_supported_ms else 0)
+        return [rows], [per_core if all_to_all else 1]
     conns = expand_on_chip(network, proj, spec, seed)
     delay = delay_steps(conns, step) * step
-    out = []
+    out, events = [], []
     for part in _signed_parts(network, proj, conns.weight, spec):
         rows = []
-        for mask in (part & (delay <= max_supported_ms), part & (delay > max_supported_ms)):
+        for mask in (part & (delay <= max_supported_ms), part & (delay >= max_supported_ms) & extended):
             rows.append(_list_row_max(conns.pre[mask], conns.post[mask] // n_post_atoms) if mask.any() else 0)
         out.append(_Rows(undelayed=rows[0], delayed=rows[1]))
-    return out
+        if part.any():
+            events.append(_list_row_max(conns.pre[part], conns.post[part] // per_core))
+    return out, events
 
 
 def _group(values: np.ndarray, order_by: np.ndarray) -> list[np.ndarray]:
@@ -191,12 +212,14 @@ def _row_words(n_synapses: int, plastic: bool, rules: SpinnakerRules) -> int:
 
 
 class _Placer:
-    """PACMAN's ``ApplicationPlacer`` with cores as the only resource and one core per group.
+    """PACMAN's ``ApplicationPlacer`` with cores as the only resource.
 
-    An application vertex is placed from a start chip onto neighbouring chips of the same
-    board; if the neighbourhood runs out, the attempt is dropped and repeated from the next
-    start chip (``_prepare_placements``). Start chips tried for one vertex are offered
-    first to the next vertex; new start chips come in x-then-y order.
+    An application vertex is a list of same-chip groups (one core each, or a neuron core
+    with its synapse and Poisson cores), placed from a start chip onto neighbouring chips
+    of the same board; a chip too full for a group is skipped, and if the neighbourhood
+    runs out the attempt is dropped and repeated from the next start chip
+    (``_prepare_placements``). Start chips tried for one vertex are offered first to the
+    next vertex; new start chips come in x-then-y order.
     """
 
     def __init__(self, spec: HwSpec) -> None:
@@ -215,18 +238,21 @@ class _Placer:
         self.restored: list[tuple[int, int]] = []
         self.neighbours: dict[tuple[int, int], None] = {}
 
-    def _space(self, xy: tuple[int, int], prepared: set) -> list[int] | None:
+    def _space(self, xy: tuple[int, int], n_cores: int, prepared: set) -> list[int] | None:
+        """Free cores of ``xy`` if a group of ``n_cores`` fits (``_space_on_chip``)."""
         if not self.free[xy]:
             self.full.add(xy)
             return None
         prepared.add(xy)
+        if len(self.free[xy]) < n_cores:
+            return None
         for dx, dy in _LINKS:
             n = (xy[0] + dx, xy[1] + dy)
             if n in self.free and n not in self.full and n not in prepared:
                 self.neighbours[n] = None
         return list(self.free[xy])
 
-    def _start(self, prepared: set) -> tuple[tuple[int, int], list[int]] | None:
+    def _start(self, n_cores: int, prepared: set) -> tuple[tuple[int, int], list[int]] | None:
         self.neighbours.clear()
         while True:
             start = None
@@ -240,39 +266,118 @@ class _Placer:
                 if start is None:
                     return None
             self.starts_tried.append(start)
-            cores = self._space(start, prepared)
+            cores = self._space(start, n_cores, prepared)
             if cores is not None:
                 return start, cores
 
-    def place_vertex(self, n_cores: int) -> list[tuple[int, int, int]] | None:
-        """Cores ``(x, y, p)`` for one vertex of ``n_cores`` cores, or None when no chip is left."""
+    def place_vertex(self, groups: list[int]) -> list[tuple[int, int, int]] | None:
+        """Cores ``(x, y, p)`` for one vertex of same-chip groups of ``groups`` cores, or None
+        when no chip is left."""
         self.restored.extend(self.starts_tried)
         self.starts_tried = []
         while True:
             prepared: set = set()
             current: tuple[tuple[int, int], list[int]] | None = None
             out: list[tuple[int, int, int]] = []
-            for _ in range(n_cores):
+            for n_cores in groups:
                 if current is None:
-                    current = self._start(prepared)
+                    current = self._start(n_cores, prepared)
                     if current is None:
                         return None
-                elif not current[1]:
+                elif len(current[1]) < n_cores:
                     current = None
                     while self.neighbours:
                         cand = next(iter(self.neighbours))
                         del self.neighbours[cand]
-                        cores = self._space(cand, prepared)
+                        cores = self._space(cand, n_cores, prepared)
                         if cores is not None:
                             current = (cand, cores)
                             break
                     if current is None:
                         break
-                out.append((current[0][0], current[0][1], current[1].pop(0)))
+                out += [(current[0][0], current[0][1], current[1].pop(0)) for _ in range(n_cores)]
             else:
                 for x, y, p in out:
                     self.free[(x, y)].remove(p)
                 return out
+
+
+def _direct_poisson(network: Network, proj: Projection, spec: HwSpec, n_out: dict[str, int]) -> bool:
+    """Whether ``proj`` is a Poisson source sPyNNaker simulates next to the neuron core
+    (``splitter_utils.is_direct_poisson_source``): its only projection, one-to-one onto a
+    population of its size, static, with a delay of one step."""
+    pre, post = network.populations[proj.pre], network.populations[proj.post]
+    if not (isinstance(pre.cell_type, SpikeSourcePoisson) and n_out[proj.pre] == 1 and pre.size == post.size
+            and isinstance(proj.connector, OneToOneConnector) and _native(proj) and not proj.plastic):
+        return False
+    delay = proj.synapse.delay  # one float (a native connector)
+    return delay is None or bool(np.rint(delay / spec.timing.time_step_ms) <= 1)
+
+
+def _synapse_cores(network: Network, spec: HwSpec, projs: list[Projection], events: dict[str, list[int]],
+                   n_out: dict[str, int]) -> tuple[int, list[str]]:
+    """Synapse cores of a population fed by ``projs`` (``n_synapse_cores_required``; 0 means a
+    combined core) and the Poisson sources simulated on its chips, at a sub-ms step.
+
+    ``events`` holds the estimated longest row of each sPyNNaker projection, ``n_out`` the
+    number of sPyNNaker projections leaving each population.
+    """
+    rules = spec.spinnaker
+    assert rules is not None
+    pops = network.populations
+    step_us = math.ceil(spec.timing.time_step_ms * 1000)
+    scale = max(1, math.ceil(step_us / rules.time_scale_step_us))
+    plastic = any(p.plastic and events[p.name] for p in projs)
+    per_core = (rules.stdp_synapses_per_second if plastic else rules.static_synapses_per_second) * scale
+    max_cores = spec.chip.cores_per_chip - rules.system_cores_per_chip - 1
+    counted = direct_count = 0
+    poisson: list[Projection] = []  # incoming_poisson_projections: one projection from a Poisson source
+    for pre in dict.fromkeys(p.pre for p in projs):
+        from_pre = [p for p in projs if p.pre == pre]
+        count = sum(math.ceil(n * rules.spikes_per_second * pops[pre].size) for p in from_pre for n in events[p.name])
+        single = sum(len(events[p.name]) for p in from_pre) == 1
+        if single and isinstance(pops[pre].cell_type, SpikeSourcePoisson):
+            poisson.append(from_pre[0])
+        if single and _direct_poisson(network, from_pre[0], spec, n_out):
+            direct_count += count
+        else:
+            counted += count
+    n = math.ceil(counted / per_core)
+    if n + len(poisson) >= max_cores:
+        n = min(math.ceil((counted + direct_count) / per_core), max_cores)
+    if n == 0 or len(poisson) + n + 1 >= spec.chip.cores_per_chip - rules.scamp_cores_per_chip:
+        return n, []
+    return n, [p.pre for p in poisson if _direct_poisson(network, p, spec, n_out)]
+
+
+def _core_groups(name: str, kind: str, size: int, per_core: int, spec: HwSpec, matrix: int, n_syn: int,
+                 feeders: list[str]) -> list[list[dict]]:
+    """The cores of one application vertex as same-chip groups, one group per slice.
+
+    A population with synapse cores has per slice its lead synapse core (holding the
+    synaptic matrix), the other synapse cores, the cores of the Poisson sources
+    ``feeders`` and the neuron core, in sPyNNaker's order.
+    """
+    groups = []
+    for lo in range(0, size, per_core):
+        hi = min(lo + per_core, size)
+        if kind != "neurons":
+            label = f"{name}:delays" if kind == "delays" else name
+            groups.append([dict(population=label, lo=lo, hi=hi, kind=kind, usage={"neurons": hi - lo},
+                                limits={"neurons": per_core})])
+            continue
+        neuron = dict(population=name, lo=lo, hi=hi, kind="neurons", usage={"neurons": hi - lo},
+                      limits={"neurons": spec.core.max_neurons})
+        if n_syn == 0:
+            neuron["usage"]["synaptic_matrix_bytes"] = matrix
+            groups.append([neuron])
+            continue
+        group = [dict(population=f"{name}:synapses", lo=lo, hi=hi, kind="synapses",
+                      usage={"synaptic_matrix_bytes": matrix} if k == 0 else {}, limits={}) for k in range(n_syn)]
+        group += [dict(population=src, lo=lo, hi=hi, kind="sources", usage={"neurons": hi - lo},
+                       limits={"neurons": per_core}) for src in feeders]
+        groups.append([*group, neuron])
+    return groups
 
 
 def partition_spinnaker(network: Network, spec: HwSpec, *, seed: int = 0) -> Partition:
@@ -291,6 +396,7 @@ def partition_spinnaker(network: Network, spec: HwSpec, *, seed: int = 0) -> Par
     type_bits = n_bits(rules.synapse_types)
     plan: dict[str, tuple[float, list[tuple[Projection, float]]]] = {}
     delay_pre: dict[str, int] = {}
+    extended: set[tuple[str, str]] = set()  # (pre, post) edges with a delay extension
     for name, pop in pops.items():
         if pop.is_source:
             continue
@@ -304,6 +410,7 @@ def partition_spinnaker(network: Network, spec: HwSpec, *, seed: int = 0) -> Par
         for proj, delay in plan[name][1]:
             if delay <= max_ms:
                 continue
+            extended.add((proj.pre, name))
             delay_pre[proj.pre] = max(delay_pre.get(proj.pre, 0), math.ceil(delay / max_ms) - 1)
             limit_ms = (rules.delay_extension_stages + 1) * max_ms
             if delay > limit_ms + 1e-9:
@@ -315,6 +422,7 @@ def partition_spinnaker(network: Network, spec: HwSpec, *, seed: int = 0) -> Par
 
     # Pass 2: synaptic matrix bytes of a core of each population (get_synapses_size).
     matrix: dict[str, int] = {}
+    events: dict[str, list[int]] = {}
     for name, (max_ms, projs) in tqdm(plan.items(), desc=f"synaptic matrices for {spec.name}", unit="population",
                                       leave=False, disable=len(plan) < 20):
         address = rules.matrix_base_bytes
@@ -322,7 +430,8 @@ def partition_spinnaker(network: Network, spec: HwSpec, *, seed: int = 0) -> Par
             n_sub = max_atoms[proj.pre]
             n_edges = -(-pops[proj.pre].size // n_sub)
             stages = delay_pre.get(proj.pre, 0)
-            parts = _row_lengths(network, proj, spec, seed, max_atoms[name], max_ms)
+            parts, events[proj.name] = _row_lengths(network, proj, spec, seed, max_atoms[name], max_ms,
+                                                    (proj.pre, name) in extended)
             for n_syn, n_stage in [pair for r in parts for pair in ((r.undelayed, 1), (r.delayed, stages))]:
                 words = _row_words(n_syn, proj.plastic, rules)
                 if words > rules.max_row_words:
@@ -339,9 +448,20 @@ def partition_spinnaker(network: Network, spec: HwSpec, *, seed: int = 0) -> Par
                     address = _align(address, rules) + size
         matrix[name] = address
 
+    # Below split_core_below_ms: synapse cores per population and Poisson sources on its chips.
+    n_syn: dict[str, int] = {}
+    feeders: dict[str, list[str]] = {}
+    if step < rules.split_core_below_ms:
+        n_out = {name: 0 for name in pops}
+        for proj in network.projections.values():
+            n_out[proj.pre] += len(events[proj.name])
+        for name, (_, projs) in plan.items():
+            n_syn[name], feeders[name] = _synapse_cores(network, spec, [p for p, _ in projs], events, n_out)
+    direct = {src for srcs in feeders.values() for src in srcs}
+
     # Application vertices in sPyNNaker's order: populations, then delay extensions.
     vertices: list[tuple[str, str, int]] = [(n, "sources" if p.is_source else "neurons", max_atoms[n])
-                                            for n, p in pops.items()]
+                                            for n, p in pops.items() if n not in direct]
     vertices += [(pre, "delays", max_atoms[pre]) for pre in dict.fromkeys(
         p.pre for p in network.projections.values() if p.pre in delay_pre)]
     placer = _Placer(spec)
@@ -349,23 +469,16 @@ def partition_spinnaker(network: Network, spec: HwSpec, *, seed: int = 0) -> Par
     chips_seen: dict[tuple[int, int], int] = {}
     unplaced = 0
     for name, kind, per_core in vertices:
-        size = pops[name].size
-        slices = [(lo, min(lo + per_core, size)) for lo in range(0, size, per_core)]
-        where = placer.place_vertex(len(slices)) if not unplaced else None
+        groups = _core_groups(name, kind, pops[name].size, per_core, spec, matrix.get(name, 0), n_syn.get(name, 0),
+                              feeders.get(name, []))
+        where = placer.place_vertex([len(g) for g in groups]) if not unplaced else None
+        made = [core for group in groups for core in group]
         if where is None:
-            unplaced += len(slices)
-            where = [None] * len(slices)
-        for (lo, hi), loc in zip(slices, where, strict=True):
-            usage = {"neurons": hi - lo}
-            if kind == "neurons":
-                usage["synaptic_matrix_bytes"] = matrix[name]
-            chip = -1
-            if loc is not None:
-                chip = chips_seen.setdefault(loc[:2], len(chips_seen))
-            limit = {"neurons": spec.core.max_neurons} if kind == "neurons" else {"neurons": per_core}
-            label = f"{name}:delays" if kind == "delays" else name
-            cores.append(CoreSlice(population=label, lo=lo, hi=hi, kind=kind, chip=chip, location=loc,
-                                   usage=usage, limits=limit))
+            unplaced += len(made)
+            where = [None] * len(made)
+        for core, loc in zip(made, where, strict=True):
+            chip = -1 if loc is None else chips_seen.setdefault(loc[:2], len(chips_seen))
+            cores.append(CoreSlice(chip=chip, location=loc, **core))
     if unplaced:
         capacity = sum(len(v) for v in _Placer(spec).free.values())
         first = next(c.population for c in cores if c.location is None)
@@ -389,5 +502,8 @@ def partition_spinnaker(network: Network, spec: HwSpec, *, seed: int = 0) -> Par
         "AllToAll/OneToOne with one weight and delay use sPyNNaker's connectors; other projections are lists.",
         "Placement counts cores only; SDRAM is checked per chip for synaptic matrices.",
     )
+    if any(n_syn.values()):
+        notes += (f"Step {step:g} ms < {rules.split_core_below_ms:g} ms: separate neuron and synapse cores, synapse "
+                  f"cores estimated as sPyNNaker does from {rules.spikes_per_second:g} spikes/s per source.",)
     return Partition(hardware=spec.name, cores=tuple(cores), chips=len(chips_seen) + (1 if unplaced else 0),
                      violations=tuple(violations), notes=notes)

@@ -129,3 +129,51 @@ def small_net() -> nv.Network:
     net.connect("a", "a", nv.AllToAllConnector(allow_self_connections=False), nv.StaticSynapse(weight=0.1),
                 receptor_type="inhibitory", name="lateral")
     return net
+
+
+def sub_ms_net(*, shortest_delay: float = 0.5, longest_delay: float = 6.0) -> nv.Network:
+    """A network for sub-millisecond steps, where sPyNNaker splits neuron and synapse cores.
+
+    * ``drive`` -> ``p``: a Poisson source one-to-one onto a population of its size, its
+      only projection (sPyNNaker simulates it on the chip of ``p``'s neuron cores);
+    * ``lonely`` -> ``q``: the same, with ``q`` also fed by ``idle``;
+    * ``idle``: no input at all (kept on a combined core);
+    * ``p`` -> ``r``: random STDP synapses (more than one synapse core), ``q`` -> ``r``:
+      weights of both signs (two sPyNNaker projections);
+    * ``r`` -> ``p``: random delays from ``shortest_delay`` to ``longest_delay`` ms (with
+      60 steps or so, a delay extension and delays of exactly the 32-step ring buffer).
+    """
+    rng = np.random.default_rng(1)
+    net = nv.Network("sub_ms")
+    net.add_population("drive", 300, nv.SpikeSourcePoisson(rate=20.0))
+    net.add_population("p", 300, nv.IF_curr_exp())
+    net.connect("drive", "p", nv.OneToOneConnector(), nv.StaticSynapse(weight=1.0))
+    net.add_population("lonely", 100, nv.SpikeSourcePoisson(rate=5.0))
+    net.add_population("q", 100, nv.IF_curr_exp())
+    net.connect("lonely", "q", nv.OneToOneConnector(), nv.StaticSynapse(weight=1.0))
+    net.add_population("idle", 50, nv.IF_cond_exp())
+    net.add_population("r", 600, nv.IF_curr_exp())
+    net.connect("p", "r", nv.FixedProbabilityConnector(p_connect=0.3, seed=2), nv.STDPMechanism(weight=0.1))
+    net.connect("q", "r", nv.AllToAllConnector(), nv.StaticSynapse(weight=rng.normal(0, 0.2, (100, 600))))
+    net.connect("r", "p", nv.FixedProbabilityConnector(p_connect=0.05, seed=3),
+                nv.StaticSynapse(weight=0.1, delay=nv.Uniform(low=shortest_delay, high=longest_delay)))
+    net.connect("idle", "q", nv.AllToAllConnector(), nv.StaticSynapse(weight=0.2, delay=0.5))
+    return net
+
+
+def synapse_bound_net() -> nv.Network:
+    """A population whose synaptic input needs more synapse cores than a chip offers.
+
+    3000 Poisson sources all-to-all with STDP onto 20 neurons: sPyNNaker estimates
+    256 x 30 x 3000 events/s (rows as long as a full core's) for 1.4 M per synapse core,
+    17 cores, and caps them at 15;
+    with them on the chip a one-to-one Poisson source (``drive``) no longer fits, so it
+    gets a core of its own.
+    """
+    net = nv.Network("synapse_bound")
+    net.add_population("src", 3000, nv.SpikeSourcePoisson(rate=5.0))
+    net.add_population("drive", 20, nv.SpikeSourcePoisson(rate=5.0))
+    net.add_population("post", 20, nv.IF_curr_exp())
+    net.connect("src", "post", nv.AllToAllConnector(), nv.STDPMechanism(weight=0.05))
+    net.connect("drive", "post", nv.OneToOneConnector(), nv.StaticSynapse(weight=1.0))
+    return net

@@ -30,13 +30,16 @@ class OracleMapping:
 
     ``placements`` holds ``(population, lo_atom, hi_atom, x, y, p)`` per core in
     sPyNNaker's placement order (``hi_atom`` inclusive; delay-extension cores are
-    labelled ``"<pre>:delays"`` as the checker labels them), ``core_matrix_bytes`` the
-    synaptic matrix region of each of those cores (``None`` for sources and delays),
+    labelled ``"<pre>:delays"`` and the separate synapse cores of sub-ms steps
+    ``"<population>:synapses"``, as the checker labels them), ``kinds`` the kind of each
+    core (``neurons``, ``synapses``, ``source`` or ``delays``), ``core_matrix_bytes`` the
+    synaptic matrix region of each of those cores (``None`` where there is none),
     ``matrix_bytes`` that region per population, and ``error`` sPyNNaker's reason when
     it cannot map the network.
     """
 
     placements: list[tuple[str, int, int, int, int, int]] = field(default_factory=list)
+    kinds: list[str] = field(default_factory=list)
     core_matrix_bytes: list[int | None] = field(default_factory=list)
     matrix_bytes: dict[str, int] = field(default_factory=dict)
     chips: int = 0
@@ -74,8 +77,10 @@ def spynnaker_equivalent(network: nv.Network) -> nv.Network:
     return net
 
 
-def spinnaker_mapping(network: nv.Network, workdir: str | os.PathLike | None = None, seed: int = 0) -> OracleMapping:
-    """Map ``network`` (its sPyNNaker equivalent) with sPyNNaker on one virtual SpiNN-5 board.
+def spinnaker_mapping(network: nv.Network, workdir: str | os.PathLike | None = None, seed: int = 0,
+                      dt: float = 1.0) -> OracleMapping:
+    """Map ``network`` (its sPyNNaker equivalent) with sPyNNaker on one virtual SpiNN-5 board
+    at a time step of ``dt`` ms (sPyNNaker's default 1 ms unless given).
 
     ``workdir`` is accepted for older callers and not used: ``map_network`` keeps
     sPyNNaker's configuration and reports in a temporary folder of its own.
@@ -83,12 +88,13 @@ def spinnaker_mapping(network: nv.Network, workdir: str | os.PathLike | None = N
     del workdir
     out = OracleMapping()
     try:
-        mapped = map_network(spynnaker_equivalent(network), dt=1.0, seed=seed, n_boards=1)
+        mapped = map_network(spynnaker_equivalent(network), dt=dt, seed=seed, n_boards=1)
     except ValidationError as exc:  # sPyNNaker's own reason, in one sentence
         out.error = str(exc)
         return out
     for row in mapped["placements"]:
-        label = f"{row['population']}:delays" if row["kind"] == "delays" else row["population"]
+        label = f"{row['population']}:{row['kind']}" if row["kind"] in ("delays", "synapses") else row["population"]
+        out.kinds.append(row["kind"])
         out.placements.append((label, row["lo_atom"], row["hi_atom"], row["x"], row["y"], row["p"]))
         out.core_matrix_bytes.append(row["synaptic_matrix_bytes"])
         if row["synaptic_matrix_bytes"] is not None:

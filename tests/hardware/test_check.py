@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 import pytest
-from hw_models import locsnet, modular_snn, small_net
+from hw_models import locsnet, modular_snn, small_net, sub_ms_net
 from PIL import Image
 
 import neurovpr as nv
@@ -107,6 +107,25 @@ def test_cli_check_file_fits_and_json(tmp_path, capsys, neurovpr_main):
     assert out["fits"] is True and out["hardware"] == "spinn5" and out["cores"] == 4
     assert neurovpr_main(["check", "--file", str(path), "--hw", "kapoho-bay"]) == 0
     assert "fits" in capsys.readouterr().out
+
+
+def test_cli_check_dt_splits_spinnaker_cores_below_1ms(tmp_path, capsys, neurovpr_main):
+    """--dt 0.1 checks at that step: sPyNNaker's separate synapse cores appear (agreement: test_spinnaker_oracle)."""
+    path = tmp_path / "sub_ms.h5"
+    nv.save(sub_ms_net(), path)
+    at = {}
+    for dt in ("1.0", "0.1"):
+        assert neurovpr_main(["check", "--file", str(path), "--hw", "spinn5", "--dt", dt, "--json"]) == 0
+        at[dt] = json.loads(capsys.readouterr().out)
+    kinds = {p["kind"] for p in at["0.1"]["populations"]}
+    assert "synapses" in kinds and "synapses" not in {p["kind"] for p in at["1.0"]["populations"]}
+    assert at["0.1"]["cores"] > at["1.0"]["cores"]
+    assert at["0.1"]["cores"] == len(check_network(sub_ms_net(), "spinn5", dt=0.1).partition.cores)
+    for row in at["0.1"]["populations"]:
+        if row["kind"] == "synapses":
+            assert row["neurons"] == 0
+    with pytest.raises(ValidationError, match="time step dt must be a positive number of ms, got -1"):
+        check_network(sub_ms_net(), "spinn5", dt=-1.0)
 
 
 def test_cli_check_run_dir_does_not_fit(tmp_path, capsys, neurovpr_main):

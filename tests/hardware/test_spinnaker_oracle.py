@@ -2,31 +2,48 @@
 
 The oracle is the spinnaker backend's ``map_network`` (sPyNNaker's real partitioner,
 placer and router). Every machine vertex sPyNNaker places must be one core of the
-checker, in the same order, with the same population, atom range and (x, y, p)
+checker, in the same order, with the same population, kind, atom range and (x, y, p)
 location; the synaptic matrix region of every core must have the same size, and a
-network sPyNNaker cannot map must be reported as a violation of the same limit.
+network sPyNNaker cannot map must be reported as a violation of the same limit. This
+holds at sPyNNaker's default 1 ms step and at sub-millisecond steps, where sPyNNaker
+gives populations separate neuron and synapse cores.
 """
 
 from __future__ import annotations
+
+import dataclasses
+import re
+from collections import Counter
 
 import numpy as np
 import pytest
 
 import neurovpr as nv
-from neurovpr.hardware import check_network
+from neurovpr.errors import ValidationError
+from neurovpr.hardware import HwSpec, check_network, load_hwspec
 
 pytest.importorskip("spynnaker")
 
-from hw_models import locsnet, mbsnn, modular_snn, small_net
+from hw_models import locsnet, mbsnn, modular_snn, small_net, sub_ms_net, synapse_bound_net
 from spinnaker_oracle import spinnaker_mapping, spynnaker_equivalent
 
+#: The checker's core kinds by the names the oracle gives sPyNNaker's machine vertices.
+_KINDS = {"sources": "source"}
 
-def _compare(network: nv.Network):
-    report = check_network(network, "spinn5")
-    oracle = spinnaker_mapping(network)
+
+def _spinn5(dt: float) -> HwSpec:
+    """The SpiNN-5 spec run at a time step of ``dt`` ms."""
+    spec = load_hwspec("spinn5")
+    return dataclasses.replace(spec, timing=dataclasses.replace(spec.timing, time_step_ms=dt))
+
+
+def _compare(network: nv.Network, dt: float = 1.0):
+    report = check_network(network, _spinn5(dt))
+    oracle = spinnaker_mapping(network, dt=dt)
     assert oracle.error is None, oracle.error
     mine = [(c.population, c.lo, c.hi - 1, *c.location) for c in report.partition.cores]
     assert mine == oracle.placements
+    assert [_KINDS.get(c.kind, c.kind) for c in report.partition.cores] == oracle.kinds
     assert report.partition.chips == oracle.chips
     assert [c.usage.get("synaptic_matrix_bytes") for c in report.partition.cores] == oracle.core_matrix_bytes
     return report
@@ -191,3 +208,74 @@ def test_explicit_list_rows_follow_spynnaker_estimate():
         true_max = int(np.unique(pre * 3 + post // 256, return_counts=True)[1].max())
         differs += true_max != theirs
     assert differs > 0
+
+
+@pytest.mark.parametrize(("dt", "shortest", "longest"), [(0.1, 0.1, 6.0), (0.5, 0.5, 30.0), (1.0, 1.0, 60.0)])
+def test_sub_ms_network_matches_spynnaker(dt, shortest, longest):
+    """Neuron and synapse cores below 1 ms, combined cores at 1 ms, with delay extensions.
+
+    Below 1 ms every population with synaptic input has per slice a lead synapse core
+    (holding the synaptic matrix), further synapse cores for STDP input (``r``), the
+    core of a one-to-one Poisson source of its size (``drive``, ``lonely``) and the
+    neuron core, on one chip; ``idle`` has no input and keeps a combined core. ``r -> p``
+    delays reach twice the 32-step ring buffer of ``p``, with delays of exactly 32 steps
+    (counted in both of its synaptic matrices, as sPyNNaker does).
+    """
+    report = _compare(sub_ms_net(shortest_delay=shortest, longest_delay=longest), dt)
+    cores = report.partition.cores
+    count = Counter(c.population for c in cores)
+    assert count["r:delays"] == 3
+    if dt == 1.0:
+        assert not any(c.kind == "synapses" for c in cores) and count["drive"] == 1
+        return
+    assert count["p:synapses"] == 2 and count["q:synapses"] == 1 and count["r:synapses"] == 6
+    assert [c.kind for c in cores if c.population.startswith("p")] == ["synapses", "neurons"] * 2
+    assert [(c.lo, c.hi) for c in cores if c.population == "drive"] == [(0, 256), (256, 300)]
+    for group in ([c for c in cores if c.population in ("p", "p:synapses", "drive")][k::2] for k in (0, 1)):
+        assert len({c.location[:2] for c in group}) == 1
+    assert [c.kind for c in cores if c.population == "idle"] == ["neurons"]
+    assert report.partition.cores_of("idle")[0].usage["synaptic_matrix_bytes"] == 8
+
+
+def test_synapse_cores_capped_and_poisson_kept_apart_as_in_spynnaker():
+    """17 synapse cores wanted, 15 given; a group of 16 cores skips chips with fewer free."""
+    report = _compare(synapse_bound_net(), 0.1)
+    cores = report.partition.cores
+    post = [c for c in cores if c.population in ("post", "post:synapses")]
+    assert [c.kind for c in post] == ["synapses"] * 15 + ["neurons"]
+    assert {c.location[:2] for c in post} == {(0, 1)}
+    assert [c.location for c in cores if c.population == "drive"] == [(0, 0, 9)]
+
+
+def test_reduced_mbsnn_at_sub_ms_step_matches_spynnaker():
+    """MBSNN with 2 x 1000 KCs at 0.1 ms: STDP KC->KC input needs several synapse cores."""
+    report = _compare(mbsnn(n_kc=1000), 0.1)
+    count = Counter(c.population for c in report.partition.cores)
+    assert count["kc2:synapses"] > count["kc2"] == 4 and count["kc1:synapses"] == count["kc1"]
+
+
+@pytest.mark.slow
+def test_mbsnn_at_sub_ms_step_matches_spynnaker():
+    """Paper size at 0.1 ms: 16 KC2 slices of 15 synapse cores and a neuron core, one chip each."""
+    report = _compare(mbsnn(), 0.1)
+    count = Counter(c.population for c in report.partition.cores)
+    assert count["kc2:synapses"] == 15 * 16
+    assert report.partition.chips == 19 and report.fits
+
+
+def test_sub_ms_rules_are_read_from_the_hwspec(tmp_path):
+    """The sub-ms constants come from the hwspec, and a missing one is named."""
+    text = load_hwspec("spinn5").source
+    with open(text, encoding="utf-8") as f:
+        toml = f.read()
+    path = tmp_path / "no_rate.toml"
+    path.write_text(re.sub(r"(?m)^stdp_synapses_per_second = .*$", "", toml), encoding="utf-8")
+    with pytest.raises(ValidationError, match=r"missing field \[spinnaker\]\.stdp_synapses_per_second"):
+        load_hwspec(path)
+    faster = tmp_path / "faster.toml"
+    faster.write_text(re.sub(r"(?m)^stdp_synapses_per_second = .*$", "stdp_synapses_per_second = 100000000", toml),
+                      encoding="utf-8")
+    spec = load_hwspec(faster)
+    spec = dataclasses.replace(spec, timing=dataclasses.replace(spec.timing, time_step_ms=0.1))
+    cores = check_network(synapse_bound_net(), spec).partition.cores
+    assert sum(c.population == "post:synapses" for c in cores) == 1
