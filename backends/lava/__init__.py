@@ -1,7 +1,7 @@
 """The ``lava`` and ``lava-fixed`` backends.
 
-Both compile a network to Lava processes (LIF, DelayDense/DelaySparse, Conv,
-injectors for spike sources and extractors for spikes) and run them with
+Both compile a network to Lava processes (LIF, Dense/Sparse, DelayDense/DelaySparse,
+Conv with a delay, injectors for spike sources and extractors for spikes) and run them with
 ``Loihi2SimCfg``: ``lava`` selects
 the ``floating_pt`` models (off-chip), ``lava-fixed`` the ``fixed_pt`` models,
 bit-accurate with Loihi 2's number formats. They run inference: ``IF_curr_exp``

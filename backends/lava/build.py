@@ -3,12 +3,18 @@
 A neuron population becomes a ``LIF`` (or ``LIFRefractory``) process whose spikes
 leave through an ``Extractor``; a spike source an ``Injector`` into which the
 simulation sends one spike vector per step (Lava's channels carry one message per
-step, where setting a ``Var`` moves one element at a time); a projection one ``DelayDense`` or
-``DelaySparse`` process per distinct delay, or a ``Conv`` process where Lava's
-convolution reproduces the semantics exactly (from a spike source, one-step
-delay). Lava compiles only the processes connected to the one it runs, so
-separate parts of a network are tied to one silent hub neuron through
-zero-weight ``Dense`` processes.
+step, where setting a ``Var`` moves one element at a time). A projection becomes:
+
+- a convolution with one delay and one weight scale: a
+  :class:`~.connections.DelayConv` (Lava's ``Conv`` with the delay), from a spike
+  source or a neuron population alike;
+- otherwise one process per distinct delay: ``Dense``/``Sparse`` where the delay is
+  the one step these give (a spike source's one-step delay: its spikes are replayed
+  one step after their stamp), else ``DelayDense``/``DelaySparse`` (a neuron's
+  ``K``-step delay is ``delays = K``: see :mod:`.translation`).
+
+Lava compiles only the processes connected to the one it runs, so separate parts of
+a network are tied to one silent hub neuron through zero-weight ``Dense`` processes.
 
 Lava itself is reached through :func:`.compat.import_lava` (which applies the
 Python 3.11 fix first).
@@ -48,6 +54,7 @@ class LavaNetwork:
     injectors: dict[str, Any] = field(default_factory=dict)
     synapses: dict[str, list[Any]] = field(default_factory=dict)
     kinds: dict[str, str] = field(default_factory=dict)
+    resettable: list[Any] = field(default_factory=list)
     links: list[Any] = field(default_factory=list)
 
     @property
@@ -58,17 +65,21 @@ class LavaNetwork:
     def run_config(self) -> Any:
         """``Loihi2SimCfg`` selecting ``fixed_pt`` or ``floating_pt`` models.
 
-        Lava's injector and extractor models carry no tag, so they are named explicitly.
+        Lava's injector and extractor models carry no tag, so they are named explicitly,
+        as are the models of the backend's resettable processes (:mod:`.resets`).
         """
         lava = import_lava()
         from lava.proc.io.extractor import PyLoihiExtractorModel
         from lava.proc.io.injector import PyLoihiInjectorModel
 
         models: dict[Any, Any] = {lava.Injector: PyLoihiInjectorModel, lava.Extractor: PyLoihiExtractorModel}
-        if self.fixed:
-            from .models import PyLifRefractoryModelFixed
+        from .resets import model_map
 
-            models[lava.LIFRefractory] = PyLifRefractoryModelFixed
+        # Lava looks an exception up by process instance before searching for models by class
+        # (it finds none for the backend's own processes): each is named explicitly
+        by_class = model_map(self.fixed)
+        for process in self.resettable:
+            models[process] = by_class[type(process)]
         return lava.Loihi2SimCfg(select_tag="fixed_pt" if self.fixed else "floating_pt", exception_proc_model_map=models)
 
 
@@ -80,7 +91,9 @@ def receptors_by_population(network: Network) -> dict[str, frozenset[str]]:
     return {name: frozenset(kinds) for name, kinds in found.items()}
 
 
-def _lif_process(lava: Any, params: LavaLIF, size: int, fixed: bool) -> Any:
+def _lif_process(params: LavaLIF, size: int, fixed: bool) -> Any:
+    from .resets import ResettableLIF, ResettableLIFRefractory
+
     if fixed:
         kwargs: dict[str, Any] = {
             "shape": (size,),
@@ -104,21 +117,37 @@ def _lif_process(lava: Any, params: LavaLIF, size: int, fixed: bool) -> Any:
             "bias_exp": np.zeros(size),
         }
     if params.refractory_steps > 0:
-        return lava.LIFRefractory(refractory_period=params.refractory_steps, **kwargs)
-    return lava.LIF(**kwargs)
+        return ResettableLIFRefractory(refractory_period=params.refractory_steps, **kwargs)
+    return ResettableLIF(**kwargs)
 
 
-def _conv_process(lava: Any, proj: Projection, conn: ConvolutionConnector, kernel: np.ndarray, fixed: bool) -> Any | None:
-    """A ``Conv`` process for a convolution whose kernel (already scaled) Lava can hold, else ``None``."""
+def _uniform_scale(scale: np.ndarray) -> bool:
+    return bool(scale.size == 0 or np.all(scale == scale[0]))
+
+
+def _conv_process(
+    proj: Projection, conn: ConvolutionConnector, kernel: np.ndarray, used: np.ndarray, *, delay: int, fixed: bool
+) -> Any:
+    """A (resettable) :class:`~.connections.DelayConv` for a convolution whose kernel and connection values are scaled.
+
+    ``used`` are the values the expanded connections carry (what the ``DelaySparse``
+    path quantises): a fixed-point kernel gets their exponent and sign mode.
+    """
+    from .resets import ResettableDelayConv
+
+    extra: dict[str, Any] = {}
     if fixed:
-        quant = fixed_weights(kernel)
-        if quant.exp < 0:
-            return None  # Lava's fixed-point Conv applies no weight exponent
-        kernel = quant.mantissa * 2**quant.exp
+        lava = import_lava()
+        quant = fixed_weights(kernel, like=used)
+        kernel = quant.mantissa
+        sign = {"excitatory": "EXCITATORY", "inhibitory": "INHIBITORY", "mixed": "MIXED"}[quant.sign_mode]
+        extra = {"weight_exp": quant.exp, "num_weight_bits": 8, "sign_mode": getattr(lava.SignMode, sign)}
     (c, h, w), (sh, sw), (ph, pw) = conn.input_shape, conn.stride, conn.padding
     # Lava convolves (flipped kernel) in (x, y, channel) order; neurovpr correlates in (channel, y, x)
     weight = np.ascontiguousarray(kernel[:, :, ::-1, ::-1].transpose(0, 3, 2, 1))
-    return lava.Conv(weight=weight, input_shape=(w, h, c), padding=(pw, ph), stride=(sw, sh), name=proj.name)
+    return ResettableDelayConv(
+        weight=weight, input_shape=(w, h, c), padding=(pw, ph), stride=(sw, sh), delays=delay, name=proj.name, **extra
+    )
 
 
 def _matrix_process(
@@ -133,6 +162,12 @@ def _matrix_process(
     v_post: float,
     name: str,
 ) -> Any:
+    """``Dense``/``Sparse`` for ``delay == 0`` (one step, their own timing), else ``DelayDense``/``DelaySparse``.
+
+    Each is the resettable version of :mod:`.resets`.
+    """
+    from . import resets
+
     matrix = scipy.sparse.coo_matrix((values, (post, pre)), shape=shape).tocsr()
     matrix.sum_duplicates()
     kwargs: dict[str, Any] = {"name": name}
@@ -142,11 +177,18 @@ def _matrix_process(
         sign = {"excitatory": "EXCITATORY", "inhibitory": "INHIBITORY", "mixed": "MIXED"}[quant.sign_mode]
         kwargs.update(weight_exp=quant.exp, num_weight_bits=8, sign_mode=getattr(lava.SignMode, sign))
     if matrix.nnz > _DENSE_FRACTION * shape[0] * shape[1]:
-        dense = matrix.toarray()
-        return lava.DelayDense(weights=dense.astype(np.int64) if fixed else dense, delays=delay, **kwargs)
+        dense = matrix.toarray().astype(np.int64) if fixed else matrix.toarray()
+        if delay == 0:
+            return resets.ResettableDense(weights=dense, **kwargs)
+        return resets.ResettableDelayDense(weights=dense, delays=delay, **kwargs)
     if fixed:
         matrix = matrix.astype(np.int64)
-    return lava.DelaySparse(weights=matrix, delays=delay, **kwargs)
+    if delay == 0:
+        return resets.ResettableSparse(weights=matrix, **kwargs)
+    # delays on the weights' pattern (an integer would make Lava fill a matrix of every pair)
+    delays = matrix.copy().astype(int)
+    delays.data[:] = delay
+    return resets.ResettableDelaySparse(weights=matrix, delays=delays, **kwargs)
 
 
 def _build_projection(
@@ -159,20 +201,23 @@ def _build_projection(
     post_lif = built.lifs[proj.post]
     n_pre, n_post = network.populations[proj.pre].size, network.populations[proj.post].size
     steps = delay_steps(conns.delay, dt)
+    # a spike source's spikes are replayed one step after their stamp: one step less in the synapse
+    extra = (steps - 1) if from_source else steps
     made: list[Any] = []
     conn = proj.connector
-    if isinstance(conn, ConvolutionConnector) and from_source and np.all(steps == 1) and np.allclose(scale, scale[0], rtol=1e-12):
-        kernel = np.asarray(proj.synapse.weight) * scale[0] * (params.fixed_v if built.fixed else 1.0)
-        process = _conv_process(lava, proj, conn, kernel, built.fixed)
-        if process is not None:
-            pre_port.reshape(conn.input_shape).transpose([2, 1, 0]).connect(process.s_in)
-            process.a_out.transpose([2, 1, 0]).reshape((n_post,)).connect(post_lif.a_in)
-            built.synapses[proj.name] = [process]
-            built.kinds[proj.name] = "Conv"
-            return
-    for k in np.unique(steps):
-        sel = steps == k
-        delay = int(k) - 1 if from_source else int(k)
+    v_post = params.fixed_v if built.fixed else 1.0
+    if isinstance(conn, ConvolutionConnector) and steps.size and np.all(steps == steps[0]) and _uniform_scale(scale):
+        kernel = np.asarray(proj.synapse.weight, dtype=np.float64) * scale[0] * v_post
+        used = weights * scale[conns.post] * v_post
+        process = _conv_process(proj, conn, kernel, used, delay=int(extra[0]), fixed=built.fixed)
+        pre_port.reshape(conn.input_shape).transpose([2, 1, 0]).connect(process.s_in)
+        process.a_out.transpose([2, 1, 0]).reshape((n_post,)).connect(post_lif.a_in)
+        built.synapses[proj.name] = [process]
+        built.resettable.append(process)
+        built.kinds[proj.name] = process.kind
+        return
+    for k in np.unique(extra):
+        sel = extra == k
         values = weights[sel] * scale[conns.post[sel]]
         process = _matrix_process(
             lava,
@@ -180,16 +225,17 @@ def _build_projection(
             conns.post[sel],
             values,
             (n_post, n_pre),
-            delay=delay,
+            delay=int(k),
             fixed=built.fixed,
             v_post=params.fixed_v,
             name=proj.name,
         )
         pre_port.connect(process.s_in)
         process.a_out.connect(post_lif.a_in)
+        built.resettable.append(process)
         made.append(process)
     built.synapses[proj.name] = made
-    built.kinds[proj.name] = type(made[0]).__name__ if made else "none"
+    built.kinds[proj.name] = made[0].kind if made else "none"
 
 
 def _components(network: Network) -> list[list[str]]:
@@ -246,7 +292,8 @@ def build_network(
             continue
         params = lava_lif(pop, dt, receptors[name])
         built.params[name] = params
-        lif = _lif_process(lava, params, pop.size, fixed)
+        lif = _lif_process(params, pop.size, fixed)
+        built.resettable.append(lif)
         extractor = lava.Extractor(shape=(pop.size,), buffer_size=buffer_steps)
         lif.s_out.connect(extractor.in_port)
         built.lifs[name], built.extractors[name] = lif, extractor

@@ -237,8 +237,8 @@ def import_lava(*, apply_fix: bool = True) -> SimpleNamespace:
     Returns
     -------
     types.SimpleNamespace
-        ``LIF``, ``LIFRefractory``, ``Dense``, ``DelayDense``, ``DelaySparse``,
-        ``Conv``, ``SignMode``, ``Injector``, ``Extractor``, ``Loihi2SimCfg``,
+        ``LIF``, ``LIFRefractory``, ``Dense``, ``DelayDense``, ``Sparse``,
+        ``DelaySparse``, ``Conv``, ``SignMode``, ``Injector``, ``Extractor``, ``Loihi2SimCfg``,
         ``RunSteps`` and ``version``.
 
     Raises
@@ -264,7 +264,7 @@ def import_lava(*, apply_fix: bool = True) -> SimpleNamespace:
         from lava.proc.io.extractor import Extractor
         from lava.proc.io.injector import Injector
         from lava.proc.lif.process import LIF, LIFRefractory
-        from lava.proc.sparse.process import DelaySparse
+        from lava.proc.sparse.process import DelaySparse, Sparse
         from lava.utils.weightutils import SignMode
     except Exception as exc:
         cause = f"{type(exc).__name__}: {exc}"
@@ -289,6 +289,7 @@ def import_lava(*, apply_fix: bool = True) -> SimpleNamespace:
         Dense=Dense,
         DelayDense=DelayDense,
         DelaySparse=DelaySparse,
+        Sparse=Sparse,
         Conv=Conv,
         SignMode=SignMode,
         Injector=Injector,

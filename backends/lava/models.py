@@ -4,8 +4,8 @@ It combines Lava's own bit-accurate LIF arithmetic (``AbstractPyLifModelFixed``:
 12-bit decays, 24-bit ``u`` and ``v``, ``vth << 6``, bias mantissa and exponent) with
 the refractory rule of Lava's float ``PyLifRefractoryModelFloat``: after a spike at
 step ``t`` the voltage stays at 0 for ``refractory_period`` steps while the current
-``u`` keeps integrating. The backend selects it through the run configuration's
-``exception_proc_model_map``.
+``u`` keeps integrating. The backend runs it with a reset request added
+(:mod:`.resets`).
 
 Importing it imports Lava, through :func:`.compat.import_lava` (the Python 3.11 fix).
 """

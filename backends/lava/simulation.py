@@ -146,7 +146,11 @@ class LavaSimulation(Simulation):
         return self._steps * self._dt
 
     def process_kinds(self) -> dict[str, str]:
-        """The Lava process class each projection became (``DelayDense``, ``DelaySparse`` or ``Conv``)."""
+        """The Lava process class each projection became.
+
+        ``Dense``, ``Sparse``, ``DelayDense``, ``DelaySparse`` (the first group of
+        delays), or ``Conv`` (a convolution as a :class:`~.connections.DelayConv`).
+        """
         return dict(self._built.kinds) if self._built is not None else {}
 
     # -- running ---------------------------------------------------------------
@@ -214,24 +218,16 @@ class LavaSimulation(Simulation):
         self._clear_records()
 
     def _reset_processes(self) -> None:
-        """Membranes, currents, refractoriness and spikes in flight back to their initial values."""
+        """Membranes, currents, refractoriness and spikes in flight back to their initial values.
+
+        Each process restores its own state at its next step (:mod:`.resets`): one
+        message per process, where setting the variables takes one per element.
+        """
         built = self._built
         if built is not None:
-            for name, lif in built.lifs.items():
-                params = built.params[name]
-                size = params.v_init.size
-                if self._fixed:
-                    lif.u.set(np.zeros(size, dtype=np.int64))
-                    lif.v.set(params.v_init_int.copy())
-                else:
-                    lif.u.set(np.zeros(size))
-                    lif.v.set(params.v_init.copy())
-                if params.refractory_steps > 0:
-                    lif.refractory_period_end.set(np.zeros(size, dtype=np.int64))
-            for processes in built.synapses.values():
-                for process in processes:
-                    buffer = process.a_buf if hasattr(process, "a_buf") else process.a_buff
-                    buffer.set(np.zeros(buffer.shape, dtype=np.int64 if self._fixed else np.float64))
+            request = np.ones(1, dtype=np.int64)
+            for process in built.resettable:
+                process.reset_request.set(request)
 
     def _set_plasticity(self, on: bool) -> None:
         """Nothing learns here (plastic synapses are refused at compile)."""

@@ -16,9 +16,10 @@ membrane equation is linear, so measuring ``v`` from ``v_reset`` turns a resting
 this is exactly the exact integration of docs/semantics.md, step by step; the
 refractory period is Lava's ``LIFRefractory`` (``round(tau_refrac / dt)`` steps held at
 rest while ``u`` keeps integrating). A spike reaches its target through
-``DelayDense``/``DelaySparse`` one step plus ``delays`` later, so a neuron
-projection uses ``delays = K`` and a source projection (replayed one step after its
-stamp) ``K - 1``, ``K = round(delay / dt)``: arrival times match the semantics.
+``DelayDense``/``DelaySparse`` (or a ``DelayConv``) one step plus ``delays`` later
+(``Dense``/``Sparse``: one step), so a neuron projection uses ``delays = K`` and a
+source projection (replayed one step after its stamp) ``K - 1``,
+``K = round(delay / dt)``: arrival times match the semantics.
 
 ``fixed_pt`` (``lava-fixed``, bit-accurate Loihi 2) scales everything into Loihi's
 integer formats (lava/proc/lif/models.py, dense/models.py, utils/weightutils.py):
@@ -246,16 +247,23 @@ class FixedWeights:
     sign_mode: str
 
 
-def fixed_weights(values: np.ndarray) -> FixedWeights:
-    """Quantise ``values`` (already multiplied by ``V``) to 8-bit mantissas with one exponent."""
+def fixed_weights(values: np.ndarray, *, like: np.ndarray | None = None) -> FixedWeights:
+    """Quantise ``values`` (already multiplied by ``V``) to 8-bit mantissas with one exponent.
+
+    The exponent and sign mode are chosen for ``like`` when given (the values a
+    projection's connections actually carry, for a kernel holding entries that
+    reach no connection), else for ``values``.
+    """
     values = np.asarray(values, dtype=np.float64)
-    top = float(np.abs(values).max()) if values.size else 0.0
-    if values.size == 0 or top == 0.0:
+    ref = values if like is None else np.asarray(like, dtype=np.float64)
+    top = float(np.abs(ref).max()) if ref.size else 0.0
+    if ref.size == 0 or top == 0.0:
         return FixedWeights(np.zeros(values.shape, dtype=np.int64), 0, "excitatory")
-    if values.min() >= 0 or values.max() <= 0:
-        mode = "excitatory" if values.min() >= 0 else "inhibitory"
+    if ref.min() >= 0 or ref.max() <= 0:
+        mode = "excitatory" if ref.min() >= 0 else "inhibitory"
         exp = math.ceil(math.log2(top / 255.0))
-        mant = np.clip(np.rint(values / 2.0**exp), -255, 255)
+        low, high = (0, 255) if mode == "excitatory" else (-255, 0)
+        mant = np.clip(np.rint(values / 2.0**exp), low, high)
     else:
         mode = "mixed"
         exp = math.ceil(math.log2(top / 254.0))

@@ -243,8 +243,8 @@ def test_lava_float_matches_the_reference_backend_and_fixed_stays_close():
 @needs_lava
 def test_convolution_from_a_source_runs_as_lava_conv():
     """A convolution fed by a spike source becomes Lava's Conv process and gives the membrane of its
-    connections listed one by one (DelaySparse), in floating and in fixed point (kernel weights large
-    enough for a non-negative weight exponent, which Lava's fixed-point Conv needs)."""
+    connections listed one by one (a Sparse process: one step, the source's natural delay), in
+    floating and in fixed point."""
     conv = nv.ConvolutionConnector(input_shape=(2, 5, 6), kernel_shape=(3, 3), out_channels=2, padding=(1, 1))
     kernel = np.random.default_rng(1).normal(6.0, 3.0, conv.weight_shape)
     n_out = int(np.prod(conv.output_shape))
@@ -275,7 +275,7 @@ def test_convolution_from_a_source_runs_as_lava_conv():
                 kinds.append(sim.process_kinds()["src->out"])
             finally:
                 sim.close()
-        assert kinds == ["Conv", "DelaySparse"]
+        assert kinds == ["Conv", "Sparse"]
         assert traces[0].std() > 0.5
         np.testing.assert_allclose(traces[0], traces[1], rtol=0, atol=1e-9, err_msg=backend.name)
 
@@ -316,3 +316,137 @@ def test_refusals_name_the_feature():
     net.add_population("n", 1, nv.IF_curr_exp())
     net.connect("src", "n", nv.OneToOneConnector(), nv.StaticSynapse(weight=1.0, delay=6.4))
     assert "delay 6.4 ms = 64 steps" in _refusal(LAVA_FIXED, net)
+
+
+def _conv_chain(expanded: bool) -> nv.Network:
+    """Spike input -> convolution -> LIF map -> convolution (1 ms, or 2 ms) -> LIF map: neuron-to-neuron convolutions."""
+    rng = np.random.default_rng(11)
+    first = nv.ConvolutionConnector(input_shape=(1, 10, 10), kernel_shape=(3, 3), out_channels=3, stride=(1, 1))
+    second = nv.ConvolutionConnector(input_shape=(3, 8, 8), kernel_shape=(3, 3), out_channels=4, stride=(2, 2), padding=(1, 1))
+    third = nv.ConvolutionConnector(input_shape=(4, 4, 4), kernel_shape=(2, 2), out_channels=2)
+    cell = {"tau_m": 10.0, "tau_syn_E": 2.0, "tau_syn_I": 2.0, "tau_refrac": 1.0}
+    net = nv.Network("conv-chain")
+    trains = [np.flatnonzero(rng.random(40) < p).astype(np.float64) for p in rng.uniform(0.05, 0.25, 100)]
+    net.add_population("src", 100, nv.SpikeSourceArray.from_lists(trains))
+    net.add_population("a", 192, nv.IF_curr_exp(**cell))
+    net.add_population("b", 64, nv.IF_curr_exp(**cell))
+    net.add_population("c", 18, nv.IF_curr_exp(**cell))
+    layers = (("src", "a", first, 3.0, 1.0), ("a", "b", second, 1.5, 1.0), ("b", "c", third, 1.5, 2.0))
+    for pre, post, conn, mean, delay in layers:
+        kernel = rng.normal(mean, 2.0, conn.weight_shape)
+        name = f"{pre}->{post}"
+        if expanded:
+            probe = nv.Network("probe")
+            probe.add_population(pre, net.populations[pre].size, nv.IF_curr_exp())
+            probe.add_population(post, net.populations[post].size, nv.IF_curr_exp())
+            probe.connect(pre, post, conn, nv.StaticSynapse(weight=kernel, delay=delay), name=name)
+            c = nv.expand(probe, name, dt=1.0, seed=1)
+            listed = nv.FromListConnector(conn_list=np.column_stack([c.pre, c.post, c.weight, c.delay]))
+            net.connect(pre, post, listed, nv.StaticSynapse(), name=name)
+        else:
+            net.connect(pre, post, conn, nv.StaticSynapse(weight=kernel, delay=delay), name=name)
+    return net
+
+
+@needs_lava
+def test_neuron_to_neuron_convolution_runs_as_conv_with_the_same_spikes():
+    """Convolutions between neuron populations run as Lava Conv processes (with the one- and two-step
+    axonal delays of the semantics) and give, spike for spike, what their connections listed one by
+    one give (DelaySparse), in floating and in fixed point; floating point also equals the reference."""
+    trains = {}
+    for backend in (LAVA, LAVA_FIXED):
+        for expanded in (False, True):
+            sim = backend.compile(_conv_chain(expanded), dt=1.0, seed=4)
+            try:
+                sim.run(40.0)
+                sim.reset()
+                sim.run(40.0)  # after reset(): nothing of the first run is left in the delay buffers
+                kinds = sim.process_kinds()
+                trains[backend.name, expanded] = {pop: sim.spike_trains(pop) for pop in ("a", "b", "c")}
+            finally:
+                sim.close()
+            if expanded:
+                assert kinds == {"src->a": "Sparse", "a->b": "DelaySparse", "b->c": "DelaySparse"}
+            else:
+                assert kinds == {"src->a": "Conv", "a->b": "Conv", "b->c": "Conv"}
+        for pop in ("a", "b", "c"):
+            conv, listed = trains[backend.name, False][pop], trains[backend.name, True][pop]
+            assert conv[0].size > 5, (backend.name, pop)
+            np.testing.assert_array_equal(conv[0], listed[0], err_msg=f"{backend.name} {pop}")
+            np.testing.assert_array_equal(conv[1], listed[1], err_msg=f"{backend.name} {pop}")
+    ref = nv.compile(_conv_chain(False), backend="reference", dt=1.0, seed=4)
+    ref.run(40.0)
+    for pop in ("a", "b", "c"):
+        times, idx = ref.spike_trains(pop)
+        np.testing.assert_allclose(trains["lava", False][pop][0], times, atol=1e-9, err_msg=pop)
+        np.testing.assert_array_equal(trains["lava", False][pop][1], idx, err_msg=pop)
+
+
+@needs_lava
+def test_fast_models_compute_what_lavas_models_compute():
+    """The backend's DelayDense/DelaySparse models (weights split by delay once) give Lava's own
+    activations bit for bit in fixed point and to rounding in float; DelayConv's correlation is
+    Lava's convolution (flipped kernel, (x, y, channel) layout)."""
+    import scipy.sparse
+    from lava.proc.conv import utils as conv_utils
+    from lava.proc.dense.models import AbstractPyDelayDenseModel
+    from lava.proc.sparse.models import AbstractPyDelaySparseModel
+
+    from neurovpr.backends.lava import connections
+
+    rng = np.random.default_rng(2)
+    weights = rng.integers(-128, 128, (30, 40)) * (rng.random((30, 40)) < 0.3)
+    delays = rng.integers(0, 4, (30, 40))
+    spikes = [rng.random(40) < p for p in (0.0, 0.1, 0.5)]
+    cases = [
+        (connections.PyDelayDenseModelFixedCached, AbstractPyDelayDenseModel, weights.astype(np.int32), delays, True),
+        (connections.PyDelayDenseModelFloatCached, AbstractPyDelayDenseModel, weights * 0.37, delays, False),
+        (
+            connections.PyDelaySparseModelFixedCached,
+            AbstractPyDelaySparseModel,
+            scipy.sparse.csr_matrix(weights.astype(np.int32)),
+            scipy.sparse.csr_matrix(delays * (weights != 0)),
+            True,
+        ),
+        (
+            connections.PyDelaySparseModelFloatCached,
+            AbstractPyDelaySparseModel,
+            scipy.sparse.csr_matrix(weights * 0.37),
+            scipy.sparse.csr_matrix(delays * (weights != 0)),
+            False,
+        ),
+    ]
+    for fast_cls, lava_cls, w, d, exact in cases:
+        model = fast_cls({})
+        model.weights, model.delays = w, d
+        model.a_buff = np.zeros((30, int(delays.max()) + 1))
+        for s in spikes:
+            got, want = model.calc_act(s), lava_cls.calc_act(model, s)
+            assert got.shape == want.shape
+            if exact:
+                np.testing.assert_array_equal(got, want, err_msg=fast_cls.__name__)
+            else:
+                np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12, err_msg=fast_cls.__name__)
+    kernel = rng.normal(size=(4, 3, 2, 5))  # (C_out, KX, KY, C_in)
+    image = (rng.random((9, 7, 5)) < 0.4).astype(np.float64)
+    for stride, padding in (((1, 1), (0, 0)), ((2, 3), (1, 2))):
+        want = conv_utils.conv_scipy(image, kernel, (3, 2), stride, padding, (1, 1), 1)
+        got = connections._correlate(image, kernel[:, ::-1, ::-1, :], stride, padding)
+        np.testing.assert_allclose(got, want, rtol=1e-12, atol=1e-12)
+
+
+@needs_lava
+def test_runtime_stops_at_interpreter_exit():
+    """A simulation that is run and never closed does not keep the interpreter from exiting."""
+    done = _run_python(
+        "import neurovpr as nv\n"
+        "net = nv.Network('exit')\n"
+        "net.add_population('src', 4, nv.SpikeSourcePoisson(rate=100.0))\n"
+        "net.add_population('n', 4, nv.IF_curr_exp())\n"
+        "net.connect('src', 'n', nv.OneToOneConnector(), nv.StaticSynapse(weight=2.0))\n"
+        "sim = nv.compile(net, backend='lava', dt=1.0, seed=1)\n"
+        "sim.run(5.0)\n"
+        "print('ran', sim.time)\n"
+    )
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert "ran 5.0" in done.stdout
