@@ -6,7 +6,9 @@ one inference from the activity of one reference-simulator run (random, untraine
 weights: indicative only). The networks are those of tests/hardware/hw_models.py:
 Modular SNN (one module and 123 modules = 3,072 Nordland places / 25), MBSNN (840
 PNs, 2 x 4000 KC compartments, 1 MBON) and LoCS-Net (56x56 -> 3x3 stride-2 convs of
-8/16/32 channels -> 3,072 places).
+8/16/32 channels -> 3,072 places). MBSNN is also checked on SpiNN-5 at its simulation step
+of 0.1 ms, where sPyNNaker gives every population with input separate neuron and
+synapse cores.
 
 Usage::
 
@@ -30,8 +32,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "tests" / "hardw
 from hw_models import locsnet, mbsnn, modular_snn
 
 
-def _activity(name: str, net: nv.Network, folder: Path) -> dict:
-    """One inference on the reference simulator at 1 ms steps, saved and read back as activity."""
+def _activity(name: str, net: nv.Network, folder: Path, dt: float = 1.0) -> dict:
+    """One inference on the reference simulator at ``dt`` ms steps, saved and read back as activity."""
     rng = np.random.default_rng(0)
     if name.startswith("modular"):
         duration = 350.0
@@ -40,10 +42,10 @@ def _activity(name: str, net: nv.Network, folder: Path) -> dict:
         duration, inputs = 100.0, {}
     else:
         duration, inputs = 100.0, {"input": rng.uniform(0.0, 100.0, 56 * 56)}
-    sim = nv.compile(net, backend="reference", dt=1.0, seed=1, record_spikes=())
+    sim = nv.compile(net, backend="reference", dt=dt, seed=1, record_spikes=())
     sim.run(duration, inputs=inputs)
     spikes = {p: int(sim.spike_counts(p).sum()) for p in net.populations}
-    write_activity(folder, sim.statistics(), 1, dt_ms=1.0, population_spikes=spikes)
+    write_activity(folder, sim.statistics(), 1, dt_ms=dt, population_spikes=spikes)
     return read_activity(folder)
 
 
@@ -52,25 +54,27 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args()
-    models = {
-        "modular (1 module)": lambda: modular_snn(1, plastic=False),
-        "modular (123 modules)": lambda: modular_snn(123, plastic=False),
-        "mbsnn": mbsnn,
-        "locsnet": locsnet,
+    models = {  # name: (builder, time step in ms, hwspecs)
+        "modular (1 module)": (lambda: modular_snn(1, plastic=False), 1.0, known_hwspecs()),
+        "modular (123 modules)": (lambda: modular_snn(123, plastic=False), 1.0, known_hwspecs()),
+        "mbsnn": (mbsnn, 1.0, known_hwspecs()),
+        "mbsnn (dt 0.1 ms)": (mbsnn, 0.1, ("spinn5",)),
+        "locsnet": (locsnet, 1.0, known_hwspecs()),
     }
     rows = []
-    for name, build in models.items():
+    for name, (build, dt, hwspecs) in models.items():
         net = build()
         with tempfile.TemporaryDirectory() as tmp:
-            activity = _activity(name, net, Path(tmp))
-        for hw in known_hwspecs():
-            report = check_network(net, hw)
+            activity = _activity(name, net, Path(tmp), dt)
+        for hw in hwspecs:
+            report = check_network(net, hw, dt=dt)
             energy = estimate_energy(activity, hw, network=net, partition=report.partition)
             d = report.as_dict()
             rows.append(
                 {
                     "model": name,
                     "hardware": hw,
+                    "dt_ms": dt,
                     "fits": d["fits"],
                     "chips": d["chips"],
                     "cores": d["cores"],

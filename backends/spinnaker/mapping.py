@@ -8,7 +8,10 @@ sPyNNaker's configuration and reports into a fresh temporary folder, points
 is read from or written to the user's home), restores them and removes the folder.
 
 sPyNNaker only maps when asked to run: the mapping runs one time step, which on a
-virtual board produces no spikes. sPyNNaker keeps global state, so map one network
+virtual board produces no spikes. sPyNNaker runs a whole number of microseconds per
+step, ``dt`` rounded up (:func:`neurovpr.hardware.spinnaker.spynnaker_step_us`); its
+default minimum delay is ``dt`` itself, which it refuses when ``dt`` is not a whole
+number of microseconds, so the minimum delay given is one of its steps. sPyNNaker keeps global state, so map one network
 at a time per process.
 """
 
@@ -31,6 +34,7 @@ from types import ModuleType
 from typing import Any
 
 from neurovpr.errors import NeurovprError, UnsupportedFeatureError, ValidationError
+from neurovpr.hardware.spinnaker import spynnaker_step_us
 from neurovpr.network import Network
 
 from .capabilities import CAPABILITIES, REASONS
@@ -186,7 +190,8 @@ def map_network(network: Network, *, dt: float, seed: int, n_boards: int = 1) ->
         (the core's synaptic matrix region, ``None`` for cores without synapses),
         ``kind`` (``neurons``, ``synapses``, ``source`` or ``delays``) and ``vertex``
         (sPyNNaker's machine-vertex class); ``machine_chips``: chips of the virtual
-        machine; ``timestep_ms``.
+        machine; ``timestep_ms``: ``dt``; ``machine_timestep_us``: the step sPyNNaker
+        runs, ``dt`` rounded up to whole microseconds.
 
     Raises
     ------
@@ -207,11 +212,17 @@ def map_network(network: Network, *, dt: float, seed: int, n_boards: int = 1) ->
         more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
         raise UnsupportedFeatureError(f"Backend 'spinnaker' cannot map {problems[0]}{more}.")
     sim, view = _import()
+    step_us = spynnaker_step_us(dt)
     with _private_config(), _silenced():
         try:
-            sim.setup(timestep=float(dt), n_boards_required=int(n_boards))
+            sim.setup(timestep=float(dt), min_delay=step_us / 1000.0, n_boards_required=int(n_boards))
+            if view.get_simulation_time_step_us() != step_us:
+                raise ValidationError(
+                    f"map_network: sPyNNaker runs dt={dt!r} ms as {view.get_simulation_time_step_us()} us, "
+                    f"not the {step_us} us neurovpr.hardware.spinnaker.spynnaker_step_us expects."
+                )
             build_network(sim, network, dt=float(dt), seed=seed)
-            sim.run(float(dt))
+            sim.run(view.get_simulation_time_step_ms())
             placements = _placements(view, set(network.populations))
             machine_chips = int(view.get_machine().n_chips)
         except NeurovprError:
@@ -232,4 +243,5 @@ def map_network(network: Network, *, dt: float, seed: int, n_boards: int = 1) ->
         "placements": placements,
         "machine_chips": machine_chips,
         "timestep_ms": float(dt),
+        "machine_timestep_us": step_us,
     }

@@ -42,7 +42,14 @@ from neurovpr.pynn_names import (
 )
 from neurovpr.synapses import STDPMechanism
 
-__all__ = ["build_population", "build_projection", "build_network", "uses_native_connector", "signed_parts"]
+__all__ = [
+    "build_population",
+    "build_projection",
+    "build_network",
+    "uses_native_connector",
+    "signed_parts",
+    "spike_times",
+]
 
 #: sPyNNaker's stand-in for an unbounded Poisson duration (ms).
 _LONG = 1e12
@@ -62,8 +69,7 @@ def build_population(sim: ModuleType, pop: Population) -> Any:
     kind = type(pop.cell_type).__name__
     cell = pop.cell_type
     if isinstance(cell, SpikeSourceArray):
-        times = [cell.times[cell.offsets[i] : cell.offsets[i + 1]].tolist() for i in range(pop.size)]
-        return sim.Population(pop.size, sim.SpikeSourceArray(spike_times=times), label=pop.name)
+        return sim.Population(pop.size, sim.SpikeSourceArray(spike_times=spike_times(cell)), label=pop.name)
     values = field_values(cell)
     params = {py: _scaled(values[ir], scale) for ir, py, scale in CELL_PARAMETERS[kind]}
     if isinstance(cell, SpikeSourcePoisson) and not np.isfinite(params["duration"]):
@@ -78,6 +84,20 @@ def build_population(sim: ModuleType, pop: Population) -> Any:
     if initial:
         population.initialize(**initial)
     return population
+
+
+def spike_times(cell: SpikeSourceArray) -> list[list[float]]:
+    """The ``spike_times`` argument of sPyNNaker's ``SpikeSourceArray`` for ``cell``.
+
+    One list per neuron, or ``[]`` (sPyNNaker's "no spike times") when no neuron
+    fires at all: given one empty list per neuron, sPyNNaker 1!7.4.1 takes the most
+    common spike time of an empty ``Counter`` and fails with ``IndexError``
+    (``SpikeSourceArrayVertex._check_density_double_list``,
+    spynnaker/pyNN/models/spike_source/spike_source_array_vertex.py).
+    """
+    if cell.times.size == 0:
+        return []
+    return [cell.times[cell.offsets[i] : cell.offsets[i + 1]].tolist() for i in range(cell.n_neurons)]
 
 
 def _scaled(value: Any, scale: float) -> Any:
@@ -132,9 +152,19 @@ def _synapse(sim: ModuleType, proj: Projection, **values: float) -> Any:
     )
 
 
-def _steps(delay_ms: np.ndarray | float, dt: float) -> np.ndarray:
-    """Delays rounded to whole time steps of at least one (sPyNNaker rounds them the same way)."""
-    return np.maximum(np.rint(np.asarray(delay_ms, dtype=np.float64) / dt), 1) * dt
+def _steps(delay_ms: np.ndarray | float) -> np.ndarray:
+    """Delays (ms) rounded to whole steps of at least one of the step sPyNNaker runs.
+
+    sPyNNaker's step is a whole number of microseconds (``dt`` rounded up, see
+    :func:`neurovpr.hardware.spinnaker.spynnaker_step_us`); delays are rounded as its
+    ``FromListConnector`` and ``AbstractSynapseDynamics.round_delay`` round them,
+    ``rint(delay * steps per ms) * step``, so that sPyNNaker keeps them as given.
+    """
+    from spynnaker.pyNN.data import SpynnakerDataView
+
+    per_ms = SpynnakerDataView.get_simulation_time_step_per_ms()
+    step = SpynnakerDataView.get_simulation_time_step_ms()
+    return np.maximum(np.rint(np.asarray(delay_ms, dtype=np.float64) * per_ms), 1) * step
 
 
 def _native_projection(sim: ModuleType, network: Network, proj: Projection, populations: dict[str, Any], *, dt: float) -> Any:
@@ -142,7 +172,7 @@ def _native_projection(sim: ModuleType, network: Network, proj: Projection, popu
     bounds = proj.synapse.weight_bounds
     if bounds is not None:
         weight = float(np.clip(weight, *bounds))
-    delay = float(_steps(dt if proj.synapse.delay is None else proj.synapse.delay, dt))
+    delay = float(_steps(dt if proj.synapse.delay is None else proj.synapse.delay))
     ((_, receptor, label),) = signed_parts(network, proj, np.array([weight]))
     conn = proj.connector
     if isinstance(conn, AllToAllConnector):
@@ -166,7 +196,7 @@ def build_projection(
     if uses_native_connector(proj):
         return [_native_projection(sim, network, proj, populations, dt=dt)]
     conns = expand(network, proj, dt=dt, seed=seed)
-    delay = _steps(conns.delay, dt)
+    delay = _steps(conns.delay)
     made = []
     for keep, receptor, label in signed_parts(network, proj, conns.weight):
         if not keep.any():

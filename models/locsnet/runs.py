@@ -118,7 +118,7 @@ def write_run(
         save_checkpoint(out / FILES["checkpoint"], state_dict)
     else:
         files.pop("checkpoint")
-    record = {"model": "locsnet", "format": RUN_FORMAT, **info, "files": files}
+    record = {"model": "locsnet", "format": RUN_FORMAT, "dt_ms": spiking.dt, **info, "files": files}
     atomic_write_text(out / "run.json", json.dumps(record, indent=2))
     return out
 

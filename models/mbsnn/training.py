@@ -171,6 +171,7 @@ def train(
     grid, _ = pn_grid(spikes.n_pn)
     info = {
         **settings,
+        "dt_ms": params.dt,
         "n_pn": spikes.n_pn,
         "grid": list(grid),
         "network": NETWORK_FILE,

@@ -257,6 +257,7 @@ def train_run(
     run_info = {
         "model": "modular",
         "format": RUN_FORMAT,
+        "dt_ms": settings.dt,
         "backend": settings.backend,
         "seed": int(seed),
         "n_reference": n_ref,

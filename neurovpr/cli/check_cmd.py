@@ -4,12 +4,17 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from pathlib import Path
+from typing import Any
 
 from neurovpr.errors import ValidationError
 from neurovpr.network import Network
 
 NETWORK_FILE = "network.h5"
+
+#: The key of ``run.json`` that records the time step (ms) a run's network runs at (every model writes it).
+RUN_DT_KEY = "dt_ms"
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -27,10 +32,19 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     src.add_argument("--file", metavar="NETWORK", help="a saved network (.h5) or a NIR graph (.nir)")
     p.add_argument("--hw", required=True, metavar="NAME", help="hwspec name (spinn5, kapoho-bay, loihi2) or .toml file")
     p.add_argument("--seed", type=int, default=0, help="seed of random connectors without their own (default 0)")
-    p.add_argument("--dt", type=float, default=None, metavar="MS",
-                   help="time step on the chip (default: the hwspec's; sPyNNaker splits cores below 1 ms)")
-    p.add_argument("--plot", metavar="PNG", help="write the per-core utilisation plot here "
-                   "(default with --run: RUN_DIR/utilisation_<hw>.png)")
+    p.add_argument(
+        "--dt",
+        type=float,
+        default=None,
+        metavar="MS",
+        help="time step on the chip (default: the one RUN_DIR/run.json records, else the hwspec's; "
+        "sPyNNaker splits cores below 1 ms)",
+    )
+    p.add_argument(
+        "--plot",
+        metavar="PNG",
+        help="write the per-core utilisation plot here (default with --run: RUN_DIR/utilisation_<hw>.png)",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(handler=run)
 
@@ -58,6 +72,31 @@ def load_network_arg(run_dir: str | None, file: str | None) -> Network:
     return nv.load(path)
 
 
+def run_time_step(run_dir: str | Path) -> tuple[float, str] | None:
+    """The time step (ms) ``run_dir/run.json`` records (:data:`RUN_DT_KEY`) and where, or ``None``.
+
+    ``None`` when there is no ``run.json`` or it records no time step.
+
+    Raises
+    ------
+    ValidationError
+        If ``run.json`` is unreadable or the recorded time step is not a positive number.
+    """
+    from neurovpr.modelapi import read_run_info
+
+    path = Path(run_dir) / "run.json"
+    if not path.is_file():
+        return None
+    info: Any = read_run_info(run_dir)
+    value = info.get(RUN_DT_KEY) if isinstance(info, dict) else None
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
+        raise ValidationError(f"{path}: time step {RUN_DT_KEY} must be a positive number of ms, got {value!r}.")
+    return float(value), f"{path} {RUN_DT_KEY}"
+    return None
+
+
 def run(args: argparse.Namespace) -> int:
     """Check the fit; print a table or JSON."""
     from neurovpr.hardware import check_network
@@ -66,7 +105,11 @@ def run(args: argparse.Namespace) -> int:
 
     spec = load_hwspec(args.hw)
     network = load_network_arg(args.run, args.file)
-    report = check_network(network, spec, seed=args.seed, dt=args.dt)
+    dt, source = args.dt, "--dt"
+    if dt is None:
+        recorded = run_time_step(args.run) if args.run is not None else None
+        dt, source = recorded if recorded is not None else (None, f"{spec.name} [timing].time_step_ms")
+    report = check_network(network, spec, seed=args.seed, dt=dt)
     plot = args.plot
     if plot is None and args.run is not None:
         plot = str(Path(args.run) / f"utilisation_{spec.name}.png")
@@ -74,10 +117,12 @@ def run(args: argparse.Namespace) -> int:
         plot_utilisation(report, plot)
     if args.json:
         out = report.as_dict()
+        out["dt_source"] = source
         out["plot"] = plot
         print(json.dumps(out, indent=2))
     else:
         print(report.table())
+        print(f"time step {report.spec.timing.time_step_ms:g} ms from {source}")
         if plot is not None:
             print(f"utilisation plot: {plot}")
     return 0 if report.fits else 1

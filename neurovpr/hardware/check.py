@@ -34,7 +34,7 @@ class CheckReport:
     network : str
         The network's name.
     spec : HwSpec
-        The target.
+        The target; its ``[timing].time_step_ms`` is the step checked (``dt_ms``).
     partition : Partition
         Per-core slices, chips and violations.
     sizes : dict
@@ -91,6 +91,7 @@ class CheckReport:
             "max_chips": self.spec.chip.n_chips,
             "cores": len(self.partition.cores),
             "max_cores": self.spec.total_cores,
+            "dt_ms": self.spec.timing.time_step_ms,
             "populations": self.populations(),
             "violations": [v.as_dict() for v in self.partition.violations],
             "notes": list(self.partition.notes),
@@ -113,7 +114,8 @@ class CheckReport:
                     cells.append("-")
             rows.append(cells)
         widths = [max(len(r[i]) for r in rows) for i in range(len(header))]
-        lines = [f"{self.spec.title} ({self.spec.name}), network {self.network!r}"]
+        step = self.spec.timing.time_step_ms
+        lines = [f"{self.spec.title} ({self.spec.name}), network {self.network!r}, time step {step:g} ms"]
         lines += ["  ".join(c.ljust(w) for c, w in zip(r, widths, strict=True)).rstrip() for r in rows]
         verdict = "fits" if self.fits else f"does NOT fit ({len(self.partition.violations)} limits broken)"
         lines.append(
@@ -138,7 +140,9 @@ def check_network(network: Network, hardware: str | HwSpec, *, seed: int = 0, dt
     dt
         Time step (ms) the network runs at on the chip; default the hwspec's
         ``[timing].time_step_ms``. Delays are counted in these steps, and sPyNNaker
-        splits neuron and synapse cores below 1 ms.
+        splits neuron and synapse cores below 1 ms; on SpiNNaker the step is the one
+        sPyNNaker runs, ``dt`` rounded up to whole microseconds
+        (:func:`neurovpr.hardware.spinnaker.spynnaker_step_us`).
 
     Returns
     -------

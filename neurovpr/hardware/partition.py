@@ -263,14 +263,19 @@ def partition(network: Network, spec: HwSpec, *, seed: int = 0) -> Partition:
     Partition
         Per-core slices, the chip count and every violated limit.
     """
+    notes: tuple[str, ...] = ()
     if spec.partitioner == "loihi":
         from .loihi import partition_loihi
 
         result = partition_loihi(network, spec, seed=seed)
     else:
-        from .spinnaker import partition_spinnaker
+        from .spinnaker import partition_spinnaker, spynnaker_timing
 
+        asked = spec.timing.time_step_ms
+        spec = spynnaker_timing(spec)  # sPyNNaker's whole-microsecond step, for its rules and the delays below
         result = partition_spinnaker(network, spec, seed=seed)
+        if spec.timing.time_step_ms != asked:
+            notes = (f"sPyNNaker runs whole microseconds: the {asked:g} ms step runs as {spec.timing.time_step_ms:g} ms.",)
     # The vendor rules bound delays exactly per projection where they can (SpiNNaker):
     # keep only one delay violation per projection.
     exact = {v.where for v in result.violations if v.limit == "delay"}
@@ -281,5 +286,5 @@ def partition(network: Network, spec: HwSpec, *, seed: int = 0) -> Partition:
         chips=result.chips,
         violations=tuple(extra) + result.violations,
         host=result.host,
-        notes=result.notes,
+        notes=notes + result.notes,
     )

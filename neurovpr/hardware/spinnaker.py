@@ -32,11 +32,17 @@ any one-to-one Poisson source simulated next to it; these cores share one chip. 
 synapse core holds the synaptic matrix. Populations without synaptic input keep a
 combined core.
 
+sPyNNaker runs a whole number of microseconds per step: it rounds the requested step up
+(:func:`spynnaker_step_us`), and delays, the delay slots and the sub-ms rule all use
+that step (:func:`partition_spinnaker` takes a spec already on it, see
+:func:`spynnaker_timing`).
+
 All counts and sizes come from the hwspec (``[core]``, ``[spinnaker]``).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -48,9 +54,9 @@ from neurovpr.connectors import AllToAllConnector, OneToOneConnector
 from neurovpr.network import Network, Projection
 
 from .hwspec import HwSpec, SpinnakerRules
-from .partition import CoreSlice, Partition, Violation, delay_steps, expand_on_chip
+from .partition import CoreSlice, Partition, Violation, expand_on_chip
 
-__all__ = ["partition_spinnaker", "n_bits"]
+__all__ = ["partition_spinnaker", "n_bits", "spynnaker_step_us", "spynnaker_timing"]
 
 #: Link directions of a SpiNNaker chip, in link-id order (spinn_machine/machine.py LINK_ADD_TABLE).
 _LINKS = ((1, 0), (1, 1), (0, 1), (-1, 0), (-1, -1), (0, -1))
@@ -61,6 +67,41 @@ def n_bits(n_values: int) -> int:
     if n_values <= 1:
         return max(n_values, 0)
     return math.ceil(math.log2(n_values))
+
+
+def spynnaker_step_us(dt_ms: float) -> int:
+    """The time step (whole microseconds) sPyNNaker runs when asked for ``dt_ms``.
+
+    sPyNNaker 1!7.4.1 sets its step to ``math.ceil(timestep * MICRO_TO_MILLISECOND_CONVERSION)``
+    microseconds (spynnaker/pyNN/spinnaker.py ``SpiNNaker._set_up_timings``, with
+    ``MICRO_TO_MILLISECOND_CONVERSION = 1000.0`` from
+    spinn_front_end_common/utilities/constants.py) and uses that number / 1000.0 as its step
+    in ms (spinn_front_end_common/data/fec_data_writer.py ``_set_simulation_time_step``). The
+    same float expression is used here: 0.1234 ms runs as 124 us, 0.9995 ms as 1000 us and,
+    by float rounding (2.007 * 1000.0 > 2007), 2.007 ms as 2008 us.
+    """
+    return math.ceil(float(dt_ms) * 1000.0)
+
+
+def spynnaker_timing(spec: HwSpec) -> HwSpec:
+    """``spec`` with ``[timing].time_step_ms`` the step sPyNNaker runs (:func:`spynnaker_step_us` / 1000.0).
+
+    Apply it once: a step already in whole microseconds can round up again in float
+    arithmetic (2.008 ms is not exactly 2008 us).
+    """
+    step_ms = spynnaker_step_us(spec.timing.time_step_ms) / 1000.0
+    return dataclasses.replace(spec, timing=dataclasses.replace(spec.timing, time_step_ms=step_ms))
+
+
+def _delay_steps(delay_ms: np.ndarray | float, step_ms: float) -> np.ndarray:
+    """Delays in whole steps of at least one, rounded as sPyNNaker rounds them.
+
+    ``numpy.rint(delay * get_simulation_time_step_per_ms())`` with steps per ms
+    ``1000.0 / step_us`` (fec_data_writer.py; the rounding of FromListConnector,
+    AbstractSynapseDynamics.round_delay and synapse_io.py).
+    """
+    per_ms = 1000.0 / round(step_ms * 1000.0)
+    return np.maximum(1, np.rint(np.asarray(delay_ms, dtype=np.float64) * per_ms)).astype(np.int64)
 
 
 def _align(address: int, rules: SpinnakerRules) -> int:
@@ -107,7 +148,7 @@ def _native(proj: Projection) -> bool:
 
 def _rounded_ms(delay_ms: float, step: float) -> float:
     """A delay rounded to whole steps of at least one (sPyNNaker's ``_round_delay``)."""
-    return max(1.0, float(np.rint(delay_ms / step))) * step
+    return float(_delay_steps(delay_ms, step)) * step
 
 
 def _signed_parts(network: Network, proj: Projection, weight: np.ndarray, spec: HwSpec) -> list[np.ndarray]:
@@ -137,7 +178,7 @@ def _longest_delay(network: Network, proj: Projection, spec: HwSpec, seed: int) 
     if not listed and (delay is None or isinstance(delay, float)):
         return step if delay is None else _rounded_ms(delay, step)
     conns = expand_on_chip(network, proj, spec, seed)
-    return float(delay_steps(conns, step).max()) * step if len(conns) else step
+    return float(_delay_steps(conns.delay, step).max()) * step if len(conns) else step
 
 
 def _row_lengths(network: Network, proj: Projection, spec: HwSpec, seed: int, n_post_atoms: int,
@@ -165,7 +206,7 @@ def _row_lengths(network: Network, proj: Projection, spec: HwSpec, seed: int, n_
                      delayed=n if extended and delay >= max_supported_ms else 0)
         return [rows], [per_core if all_to_all else 1]
     conns = expand_on_chip(network, proj, spec, seed)
-    delay = delay_steps(conns, step) * step
+    delay = _delay_steps(conns.delay, step) * step
     out, events = [], []
     for part in _signed_parts(network, proj, conns.weight, spec):
         rows = []
@@ -311,7 +352,7 @@ def _direct_poisson(network: Network, proj: Projection, spec: HwSpec, n_out: dic
             and isinstance(proj.connector, OneToOneConnector) and _native(proj) and not proj.plastic):
         return False
     delay = proj.synapse.delay  # one float (a native connector)
-    return delay is None or bool(np.rint(delay / spec.timing.time_step_ms) <= 1)
+    return delay is None or bool(_delay_steps(delay, spec.timing.time_step_ms) <= 1)
 
 
 def _synapse_cores(network: Network, spec: HwSpec, projs: list[Projection], events: dict[str, list[int]],
@@ -325,7 +366,7 @@ def _synapse_cores(network: Network, spec: HwSpec, projs: list[Projection], even
     rules = spec.spinnaker
     assert rules is not None
     pops = network.populations
-    step_us = math.ceil(spec.timing.time_step_ms * 1000)
+    step_us = round(spec.timing.time_step_ms * 1000.0)  # whole microseconds (spynnaker_timing)
     scale = max(1, math.ceil(step_us / rules.time_scale_step_us))
     plastic = any(p.plastic and events[p.name] for p in projs)
     per_core = (rules.stdp_synapses_per_second if plastic else rules.static_synapses_per_second) * scale
@@ -381,7 +422,11 @@ def _core_groups(name: str, kind: str, size: int, per_core: int, spec: HwSpec, m
 
 
 def partition_spinnaker(network: Network, spec: HwSpec, *, seed: int = 0) -> Partition:
-    """Split and place ``network`` on a SpiNNaker board with sPyNNaker's rules (module docstring)."""
+    """Split and place ``network`` on a SpiNNaker board with sPyNNaker's rules (module docstring).
+
+    ``spec.timing.time_step_ms`` must be a step sPyNNaker runs, in whole microseconds
+    (:func:`spynnaker_timing`, which :func:`neurovpr.hardware.partition.partition` applies).
+    """
     rules = spec.spinnaker
     assert rules is not None, "the spinnaker partitioner needs [spinnaker]"
     step = spec.timing.time_step_ms

@@ -144,6 +144,45 @@ def test_fit_check_counts_equal_spynnaker_mapping(spynnaker_available, build) ->
     assert ("delays" in kinds) == (build is _delayed)
 
 
+def _played(times: list[list[float]]) -> nv.Network:
+    """An MBSNN-shaped network whose input is a SpikeSourceArray playing ``times``."""
+    net = nv.Network("played")
+    net.add_population("input", len(times), nv.SpikeSourceArray.from_lists(times))
+    net.add_population("pn", len(times), nv.IF_curr_exp_ca2_adaptive(i_alpha=0.2, i_offset=0.02))
+    net.add_population("kc", 300, nv.IF_curr_exp())
+    net.connect("input", "pn", nv.OneToOneConnector(), nv.StaticSynapse(weight=2.5))
+    net.connect("pn", "kc", nv.FixedNumberPreConnector(n=5), nv.StaticSynapse(weight=0.3))
+    return net
+
+
+def test_spike_source_array_without_spikes_maps_like_one_with_spikes(spynnaker_available) -> None:
+    """An input without any spike (MBSNN's ``input`` before a recording is given) maps on the same cores.
+
+    sPyNNaker fails on one empty list per neuron (IndexError in its spike-density check),
+    so the backend passes sPyNNaker's empty ``spike_times``; the SpikeSourceArray's cores
+    do not depend on its spikes, only its buffer SDRAM does.
+    """
+    from neurovpr.backends.spinnaker.translation import spike_times
+
+    n = 84
+    empty = _played([[] for _ in range(n)])
+    assert spike_times(empty.populations["input"].cell_type) == []
+    played = _played([[1.0 + i % 7, 20.0] for i in range(n)])
+    assert spike_times(played.populations["input"].cell_type)[3] == [4.0, 20.0]
+    mapped = {name: spinnaker.mapping.map_network(net, dt=0.1, seed=4) for name, net in (("empty", empty), ("played", played))}
+
+    def cores(mapping: dict) -> list[tuple]:
+        return [(r["population"], r["lo_atom"], r["hi_atom"], r["x"], r["y"], r["p"], r["kind"]) for r in mapping["placements"]]
+
+    assert cores(mapped["empty"]) == cores(mapped["played"])
+    assert (mapped["empty"]["chips"], mapped["empty"]["cores"]) == (mapped["played"]["chips"], mapped["played"]["cores"])
+    source = [r for r in mapped["empty"]["placements"] if r["population"] == "input"]
+    assert [(r["kind"], r["lo_atom"], r["hi_atom"]) for r in source] == [("source", 0, n - 1)]
+    assert any(r["kind"] == "synapses" for r in mapped["empty"]["placements"])  # sub-ms: separate synapse cores
+    out = check_network(empty, "spinn5", seed=4, dt=0.1).as_dict()
+    assert (out["chips"], out["cores"]) == (mapped["empty"]["chips"], mapped["empty"]["cores"])
+
+
 def test_run_is_refused_but_connections_and_weights_are_there(spynnaker_available) -> None:
     net = _mushroom_body(n_kc=100)
     sim = BACKEND.compile(net, dt=1.0, seed=2)

@@ -137,6 +137,36 @@ def test_cli_check_run_dir_does_not_fit(tmp_path, capsys, neurovpr_main):
     assert out["fits"] is False and out["violations"] and (run / "utilisation_kapoho-bay.png").is_file()
 
 
+def test_cli_check_run_uses_the_time_step_the_run_records(tmp_path, capsys, neurovpr_main):
+    """Without --dt, ``check --run`` checks at the step run.json records (``dt_ms``, written by every model)."""
+    run = tmp_path / "run"
+    run.mkdir()
+    nv.save(sub_ms_net(), run / "network.h5")
+    cores = {dt: len(check_network(sub_ms_net(), "spinn5", dt=dt).partition.cores) for dt in (0.1, 1.0)}
+    assert cores[0.1] > cores[1.0]  # separate synapse cores below 1 ms
+
+    def check(*extra: str) -> dict:
+        assert neurovpr_main(["check", "--run", str(run), "--hw", "spinn5", "--json", *extra]) == 0
+        return json.loads(capsys.readouterr().out)
+
+    (run / "run.json").write_text(json.dumps({"model": "mbsnn", "dt_ms": 0.1}), encoding="utf-8")
+    out = check()
+    assert (out["dt_ms"], out["cores"], out["dt_source"]) == (0.1, cores[0.1], f"{run / 'run.json'} dt_ms")
+    out = check("--dt", "1.0")
+    assert (out["dt_ms"], out["cores"], out["dt_source"]) == (1.0, cores[1.0], "--dt")
+    assert neurovpr_main(["check", "--run", str(run), "--hw", "spinn5"]) == 0
+    table = capsys.readouterr().out
+    assert "network 'sub_ms', time step 0.1 ms" in table and f"time step 0.1 ms from {run / 'run.json'} dt_ms" in table
+
+    (run / "run.json").write_text(json.dumps({"model": "other"}), encoding="utf-8")
+    out = check()
+    assert (out["dt_ms"], out["cores"], out["dt_source"]) == (1.0, cores[1.0], "spinn5 [timing].time_step_ms")
+    (run / "run.json").write_text(json.dumps({"model": "mbsnn", "dt_ms": "fast"}), encoding="utf-8")
+    assert neurovpr_main(["check", "--run", str(run), "--hw", "spinn5"]) == 2
+    err = capsys.readouterr().err
+    assert "time step dt_ms must be a positive number of ms, got 'fast'." in err and err.count("\n") == 1
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [

@@ -237,6 +237,32 @@ def test_sub_ms_network_matches_spynnaker(dt, shortest, longest):
     assert report.partition.cores_of("idle")[0].usage["synaptic_matrix_bytes"] == 8
 
 
+def test_step_of_whole_microseconds_rounds_delays_as_in_spynnaker():
+    """At 0.1234 ms sPyNNaker runs 124 us steps (it rounds the step up to whole microseconds).
+
+    A 4.02 ms delay is 32.4 of its steps, 32: within the 32 delay slots of ``near``, no
+    delay extension (at exactly 0.1234 ms it would be 32.6, 33 steps, and need one);
+    4.06 ms is 32.7 steps, 33: ``far`` needs a delay extension for ``src_far``.
+    """
+    net = nv.Network("us_step")
+    for name, delay in (("near", 4.02), ("far", 4.06)):
+        net.add_population(f"src_{name}", 100, nv.SpikeSourcePoisson(rate=5.0))
+        net.add_population(name, 300, nv.IF_curr_exp())
+        net.connect(f"src_{name}", name, nv.AllToAllConnector(), nv.StaticSynapse(weight=0.1, delay=delay))
+    report = _compare(net, 0.1234)
+    count = Counter(c.population for c in report.partition.cores)
+    assert count["src_far:delays"] == 1 and "src_near:delays" not in count
+    assert count["near:synapses"] == count["near"] == 2  # below 1 ms: separate synapse cores
+    assert report.partition.notes[0] == "sPyNNaker runs whole microseconds: the 0.1234 ms step runs as 0.124 ms."
+
+
+def test_step_rounded_up_to_one_ms_keeps_combined_cores_as_in_spynnaker():
+    """0.9995 ms is 1000 us for sPyNNaker, not below 1 ms: combined neuron-and-synapse cores."""
+    report = _compare(sub_ms_net(shortest_delay=1.0, longest_delay=60.0), 0.9995)
+    assert not any(c.kind == "synapses" for c in report.partition.cores)
+    assert Counter(c.population for c in report.partition.cores)["r:delays"] == 3
+
+
 def test_synapse_cores_capped_and_poisson_kept_apart_as_in_spynnaker():
     """17 synapse cores wanted, 15 given; a group of 16 cores skips chips with fewer free."""
     report = _compare(synapse_bound_net(), 0.1)

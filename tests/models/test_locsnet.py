@@ -280,6 +280,7 @@ def test_train_and_eval_write_a_complete_run_directory(tmp_path) -> None:
         assert (run / name).is_file(), name
     info = json.loads((run / "run.json").read_text())
     assert info["model"] == "locsnet" and info["backend"] == "reference" and info["n_places"] == 10
+    assert info["dt_ms"] == info["spiking"]["dt"]  # what `neurovpr check --run` reads
     loaded = load_run(run)
     assert loaded.network.populations["places"].size == 10
     with pytest.raises(nv.ValidationError, match="already holds a finished run"):

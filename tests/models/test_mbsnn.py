@@ -204,6 +204,7 @@ def test_train_and_eval_through_the_plugin(tmp_path):
     summary = MODEL.train(train_args)
     info = json.loads((out / "run.json").read_text())
     assert info["model"] == "mbsnn" and info["learn"] == [0.4, 0.6] and summary["n_pn"] == N_PN
+    assert info["dt_ms"] == info["parameters"]["dt_ms"]  # what `neurovpr check --run` reads
     assert (out / "network.h5").is_file() and info["neurons"]["paper_count"] == N_PN + 200 + 1
     loaded = nv.load(out / "network.h5")
     assert np.any(loaded.projections[KC_KC].synapse.weight > 0), "learned weights are saved"

@@ -171,6 +171,7 @@ def test_plan_puts_the_remainder_in_a_last_smaller_module() -> None:
 # ------------------------------------------------------------------ runs and resume
 def _outcome(run_dir: Path, query: np.ndarray) -> tuple[dict, list[np.ndarray], dict[str, dict[str, np.ndarray]]]:
     info = json.loads((run_dir / "run.json").read_text())
+    assert info["dt_ms"] == info["settings"]["dt"]  # what `neurovpr check --run` reads
     counts = query_responses(run_dir, info, query, progress=False)
     sims = member_similarities(run_dir, info, counts)
     records = {p.stem: read_npz(p) for p in sorted((run_dir / "modules").glob("*.npz"))}
