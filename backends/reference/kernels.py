@@ -1,4 +1,4 @@
-"""The compiled step loop of the reference backend.
+"""The compiled step loop of the reference backend, and everything it calls.
 
 One ``numba.njit`` function advances the whole network over a range of steps with
 no Python in the loop. The order within step ``j`` follows docs/semantics.md:
@@ -12,6 +12,23 @@ no Python in the loop. The order within step ``j`` follows docs/semantics.md:
    plastic synapses and the scheduling of its outgoing spikes (stamped ``j + 1``);
 4. recording of state variables at the end of the step.
 
+Neurons are updated in *groups* of identical parameters (scalars, so the loops
+compile to vector instructions), leaving out terms that are exactly ``+0.0`` for a
+group (subtracting them is the identity: results are the same bit for bit). A group's
+spikes are then handled in increasing neuron index, as a neuron-by-neuron loop would
+(a spike only changes its own neuron and steps after ``j + 1``). Static arrivals are
+summed per (ring slot, neuron); each slot lists the neurons it touches. Pair STDP is
+all-to-all with traces that jump by 1 (set to 1 for Diehl & Cook); all synapses of a
+segment (one presynaptic neuron, projection and delay) see the same arrivals, so
+their presynaptic trace is held once per segment (``seg_xpre``, decayed lazily from
+its last arrival ``seg_last``); postsynaptic traces decay every step.
+
+Everything ``run_steps`` computes with lives in this module, because numba's on-disk
+cache of a function is only invalidated when its own source file changes (the
+prefetch hint in :mod:`.prefetch` cannot change a result). The kernels allocate
+nothing, so they are compiled without numba's reference counting (``_nrt=False``),
+which would cost atomic operations at every call.
+
 The loop returns early (before starting a step) when the spike record buffer may
 overflow; the caller grows the buffer and calls again from that step.
 """
@@ -21,6 +38,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .prefetch import prefetch
 from .translation import (
     C_CM,
     C_E_REV_E,
@@ -44,7 +62,13 @@ from .translation import (
     C_V_RESET,
     C_V_REST,
     C_V_THRESH,
-    KIND_COND,
+    F_ADAPTIVE,
+    F_CA,
+    F_INH,
+    G_FLAGS,
+    G_HI,
+    G_KIND,
+    G_LO,
     KIND_CURR,
     R_DEP,
     R_KIND,
@@ -62,15 +86,11 @@ from .translation import (
 
 NEVER = np.int64(2**62)
 
-#: Synaptic currents (nA) and conductances (uS) below this are set to 0: their effect on
-#: the membrane is below 1e-19 mV per step, far below double precision of v.
-FLUSH = 1e-18
-
 # Indices of the activity counters.
 ST_STEPS, ST_NEURON_UPDATES, ST_SPIKES, ST_SYN_EVENTS, ST_PLASTIC_UPDATES = range(5)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, inline="always", _nrt=False)
 def uniform(rng: np.ndarray) -> float:
     """A uniform draw in (0, 1] from a xorshift64* generator held in ``rng[0]``."""
     x = rng[0]
@@ -82,13 +102,7 @@ def uniform(rng: np.ndarray) -> float:
     return float((r >> np.uint64(11)) + np.uint64(1)) * (1.0 / 9007199254740992.0)
 
 
-@njit(cache=True, inline="always")
-def _flush(x: float) -> float:
-    """``x``, or 0 when its magnitude is below ``FLUSH``."""
-    return x if abs(x) >= FLUSH else 0.0
-
-
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def geometric_gap(rng: np.ndarray, log_q: float) -> np.int64:
     """Number of empty steps before the next spike of a Bernoulli(p) process, ``log_q = log(1 - p)``."""
     if log_q == 0.0:
@@ -99,7 +113,7 @@ def geometric_gap(rng: np.ndarray, log_q: float) -> np.int64:
     return np.int64(gap)
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def draw_poisson(j: int, idx: np.ndarray, log_q: np.ndarray, nxt: np.ndarray, rng: np.ndarray) -> None:
     """(Re)draw the next spike step of every Poisson neuron from step ``j`` on."""
     for k in range(idx.size):
@@ -107,12 +121,268 @@ def draw_poisson(j: int, idx: np.ndarray, log_q: np.ndarray, nxt: np.ndarray, rn
         nxt[k] = NEVER if g == NEVER else j + g
 
 
-@njit(cache=True)
+# -- neuron groups ------------------------------------------------------------
+#: Synaptic currents (nA) and conductances (uS) below this are set to 0: their effect on
+#: the membrane is below 1e-19 mV per step, far below double precision of v.
+FLUSH = 1e-18
+
+
+@njit(cache=True, inline="always", _nrt=False)
+def flush(x: float) -> float:
+    """``x``, or 0 when its magnitude is below ``FLUSH``."""
+    return x if abs(x) >= FLUSH else 0.0
+
+
+@njit(cache=True, _nrt=False)
+def update_curr(lo, hi, flags, params, v, ie, ii, ica, refr, flag):  # fmt: skip
+    """Advance the current-based neurons ``lo:hi`` with the parameters of neuron ``lo``; return how many spiked.
+
+    One loop per set of non-zero terms (Ca2+ and inhibitory currents, inhibitory only,
+    neither), each free of branches so that it compiles to vector instructions.
+    """
+    ulo, uhi = np.uint64(lo), np.uint64(hi)  # unsigned indices: no negative-index wrap, so the loops vectorise
+    rest, p22, p21e, p11e = params[lo, C_V_REST], params[lo, C_P22], params[lo, C_P21E], params[lo, C_P11E]
+    p21i, p11i, p21ca, p11ca = params[lo, C_P21I], params[lo, C_P11I], params[lo, C_P21CA], params[lo, C_P11CA]
+    i_off, p20, v_th = params[lo, C_I_OFFSET], params[lo, C_P20], params[lo, C_V_THRESH]
+    n_spikes = 0
+    if flags & F_CA:
+        for q in range(ulo, uhi):
+            r, vq, a, b, c = refr[q], v[q], ie[q], ii[q], ica[q]
+            moved = rest + (vq - rest) * p22 + a * p21e - b * p21i - c * p21ca + i_off * p20
+            vq = vq if r > 0 else moved
+            r = r - 1 if r > 0 else r
+            ie[q] = flush(a * p11e)
+            ii[q] = flush(b * p11i)
+            ica[q] = flush(c * p11ca)
+            spike = (vq >= v_th) & (r == 0)
+            v[q], refr[q], flag[q] = vq, r, spike
+            n_spikes += spike
+    elif flags & F_INH:
+        for q in range(ulo, uhi):
+            r, vq, a, b = refr[q], v[q], ie[q], ii[q]
+            moved = rest + (vq - rest) * p22 + a * p21e - b * p21i + i_off * p20
+            vq = vq if r > 0 else moved
+            r = r - 1 if r > 0 else r
+            ie[q] = flush(a * p11e)
+            ii[q] = flush(b * p11i)
+            spike = (vq >= v_th) & (r == 0)
+            v[q], refr[q], flag[q] = vq, r, spike
+            n_spikes += spike
+    else:
+        for q in range(ulo, uhi):
+            r, vq, a = refr[q], v[q], ie[q]
+            moved = rest + (vq - rest) * p22 + a * p21e + i_off * p20
+            vq = vq if r > 0 else moved
+            r = r - 1 if r > 0 else r
+            ie[q] = flush(a * p11e)
+            spike = (vq >= v_th) & (r == 0)
+            v[q], refr[q], flag[q] = vq, r, spike
+            n_spikes += spike
+    return n_spikes
+
+
+@njit(cache=True, inline="always", _nrt=False)
+def update_cond(lo, hi, flags, params, dt, plastic_on, v, ie, ii, theta, refr, flag):  # fmt: skip
+    """Advance the conductance-based neurons ``lo:hi`` with the parameters of neuron ``lo``; return how many spiked."""
+    rest, p22, i_off, p20 = params[lo, C_V_REST], params[lo, C_P22], params[lo, C_I_OFFSET], params[lo, C_P20]
+    fe, fi, gl, cm = params[lo, C_FE], params[lo, C_FI], params[lo, C_GL], params[lo, C_CM]
+    e_rev_e, e_rev_i, v_th = params[lo, C_E_REV_E], params[lo, C_E_REV_I], params[lo, C_V_THRESH]
+    p11e, p11i, theta_decay = params[lo, C_P11E], params[lo, C_P11I], params[lo, C_THETA_DECAY]
+    adapt = plastic_on and (flags & F_ADAPTIVE) != 0
+    n_spikes = 0
+    for i in range(lo, hi):
+        if refr[i] > 0:
+            refr[i] -= 1
+        elif ie[i] == 0.0 and ii[i] == 0.0:  # no conductance: the leak alone (P22 = exp(-dt gL / cm))
+            v[i] = rest + (v[i] - rest) * p22 + i_off * p20
+        else:
+            ge = ie[i] * fe
+            gi = ii[i] * fi
+            gt = gl + ge + gi
+            v_inf = (gl * rest + ge * e_rev_e + gi * e_rev_i + i_off) / gt
+            v[i] = v_inf + (v[i] - v_inf) * np.exp(-dt * gt / cm)
+        ie[i] = flush(ie[i] * p11e)
+        ii[i] = flush(ii[i] * p11i)
+        if adapt:
+            theta[i] *= theta_decay
+        spike = v[i] >= v_th + theta[i] and refr[i] == 0
+        flag[i] = spike
+        n_spikes += spike
+    return n_spikes
+
+
+# -- plastic synapses ---------------------------------------------------------
+@njit(cache=True, inline="always", _nrt=False)
+def table_decay(x, steps, table, r, dt, tau):  # fmt: skip
+    """``x * exp(-steps * dt / tau)`` with the factor from rule ``r``'s table when it holds it.
+
+    Past the table, a row ending in 0 has decayed to exactly 0 (``exp`` is monotone,
+    see :func:`.translation.extend_pre_table`).
+    """
+    if x == 0.0:
+        return 0.0
+    width = table.shape[1]
+    if steps < width:
+        return x * table[r, steps]
+    if table[r, width - 1] == 0.0:
+        return x * 0.0
+    return x * np.exp(-steps * dt / tau)
+
+
+@njit(cache=True, _nrt=False)
+def arrive(g, j, dt, plastic_on, seg_start, seg_proj, p_post, p_w, seg_xpre, seg_last, rules, pre_table,
+           tr_shift, proj_inh, xpost1, isyn):  # fmt: skip
+    """Spikes arriving at segment ``g`` at step ``j``: depress, deliver, advance the pre trace.
+
+    Each synapse is first depressed by the postsynaptic trace (its value at time ``j``)
+    and then delivers its new weight to ``isyn[0]`` (excitatory) or ``isyn[1]``
+    (inhibitory). Returns the number of weight updates.
+    """
+    r = seg_proj[g]
+    rk = rules[r, R_KIND]
+    shift = tr_shift[r]  # trace of post neuron i: i + shift (>= 0)
+    w_min, w_max, dep = rules[r, R_W_MIN], rules[r, R_W_MAX], rules[r, R_DEP]
+    target = np.uint64(1 if proj_inh[r] else 0)
+    lo, hi = np.uint64(seg_start[g]), np.uint64(seg_start[g + 1])
+    updates = 0
+    if not plastic_on:
+        for q in range(lo, hi):
+            isyn[target, p_post[q]] += p_w[q]
+    elif rk == RULE_ADDITIVE:
+        step = dep * w_max
+        for q in range(lo, hi):
+            post = p_post[q]
+            x_post = xpost1[np.uint64(post + shift)]
+            if x_post != 0.0:
+                p_w[q] = min(max(p_w[q] - step * x_post, w_min), w_max)
+                updates += 1
+            isyn[target, post] += p_w[q]
+    else:
+        for q in range(lo, hi):
+            post = p_post[q]
+            x_post = xpost1[np.uint64(post + shift)]
+            if x_post != 0.0:
+                w = p_w[q]
+                if rk == RULE_MULTIPLICATIVE:
+                    w -= dep * (w - w_min) * x_post
+                else:
+                    w -= dep * x_post
+                p_w[q] = min(max(w, w_min), w_max)
+                updates += 1
+            isyn[target, post] += p_w[q]
+    if rk == RULE_DIEHL_COOK:
+        seg_xpre[g] = 1.0
+    else:
+        seg_xpre[g] = table_decay(seg_xpre[g], j - seg_last[g], pre_table, r, dt, rules[r, R_TAU_PRE]) + 1.0
+    seg_last[g] = j
+    return updates
+
+
+@njit(cache=True, _nrt=False)
+def potentiate(i, t, dt, post_ptr, post_syn, post_seg, seg_proj, seg_xpre, seg_last, p_w, rules, pre_table,
+               tr_shift, xpost2, x_pre):  # fmt: skip
+    """Potentiate the plastic synapses onto neuron ``i``, which spikes at step ``t``; return the updates.
+
+    The presynaptic traces are gathered first (into ``x_pre``, one per incoming synapse),
+    so the scattered weight updates that follow do not wait on one another; when all
+    the synapses follow one additive rule, that loop has no branches.
+    """
+    lo = post_ptr[i]
+    n = post_ptr[i + 1] - lo
+    if n == 0:
+        return 0
+    r0 = seg_proj[post_seg[lo]]
+    one_rule = True
+    base = np.uint64(lo)  # unsigned indices: no negative-index wrap
+    for q in range(np.uint64(n)):
+        prefetch(p_w, post_syn[base + q])  # the weights load while the traces are computed
+        g = np.uint64(post_seg[base + q])
+        r = seg_proj[g]
+        one_rule &= r == r0
+        x_pre[q] = table_decay(seg_xpre[g], t - seg_last[g], pre_table, r, dt, rules[r, R_TAU_PRE])
+    updates = 0
+    if one_rule and rules[r0, R_KIND] == RULE_ADDITIVE:
+        w_min, w_max = rules[r0, R_W_MIN], rules[r0, R_W_MAX]
+        step = rules[r0, R_POT] * w_max
+        for q in range(np.uint64(n)):
+            x = x_pre[q]
+            k = np.uint64(post_syn[base + q])
+            w = p_w[k]
+            moved = min(max(w + step * x, w_min), w_max)
+            p_w[k] = moved if x != 0.0 else w
+            updates += x != 0.0
+        return updates
+    for q in range(n):
+        x = x_pre[q]
+        k = post_syn[lo + q]
+        r = seg_proj[post_seg[lo + q]]
+        rk = rules[r, R_KIND]
+        w = p_w[k]
+        w_min, w_max = rules[r, R_W_MIN], rules[r, R_W_MAX]
+        if rk == RULE_ADDITIVE:  # without branches: a zero trace keeps the weight
+            moved = min(max(w + rules[r, R_POT] * w_max * x, w_min), w_max)
+            p_w[k] = moved if x != 0.0 else w
+            updates += x != 0.0
+            continue
+        if rk == RULE_MULTIPLICATIVE:
+            if x == 0.0:
+                continue
+            w += rules[r, R_POT] * (w_max - w) * x
+        else:
+            factor = (x - rules[r, R_X_TAR]) * (w_max - w) ** rules[r, R_MU]
+            if rules[r, R_TAU_POST2] > 0.0:
+                factor *= xpost2[i + tr_shift[r]]
+            if factor == 0.0:
+                continue
+            w += rules[r, R_POT] * factor
+        p_w[k] = min(max(w, w_min), w_max)
+        updates += 1
+    return updates
+
+
+@njit(cache=True, inline="always", _nrt=False)
+def post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2):  # fmt: skip
+    """Update the postsynaptic traces of neuron ``i`` for its spike (traces are at its time already)."""
+    for q in range(post_tr_ptr[i], post_tr_ptr[i + 1]):
+        tr = post_tr_idx[q]
+        if rules[trace_proj[tr], R_KIND] == RULE_DIEHL_COOK:
+            xpost1[tr] = 1.0
+            xpost2[tr] = 1.0
+        else:
+            xpost1[tr] += 1.0
+
+
+@njit(cache=True, inline="always", _nrt=False)
+def decay_post_traces(rules, tr_lo, tr_hi, post_decay1, post_decay2, xpost1, xpost2):  # fmt: skip
+    """Advance every postsynaptic trace by one step.
+
+    The second trace is only ever non-zero under the Diehl & Cook rule, so only those
+    projections decay it.
+    """
+    for r in range(tr_lo.size):
+        lo, hi = tr_lo[r], tr_hi[r]
+        if hi == lo:
+            continue
+        d1 = post_decay1[lo]
+        for q in range(np.uint64(lo), np.uint64(hi)):
+            xpost1[q] *= d1
+        if rules[r, R_KIND] == RULE_DIEHL_COOK:
+            d2 = post_decay2[lo]
+            for q in range(np.uint64(lo), np.uint64(hi)):
+                xpost2[q] *= d2
+
+
+# -- the step loop ------------------------------------------------------------
+@njit(cache=True, inline="always", _nrt=False)
 def emit(
     i, stamp, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_post, s_w, s_delay, s_inh,
-    buf_e, buf_i, row_seg_ptr, seg_delay, ev, ev_n, stats,
+    buf_e, buf_i, touched, touched_n, mark, row_seg_ptr, seg_delay, ev, ev_n, stats,
 ):  # fmt: skip
-    """Record the spike of neuron ``i`` at step ``stamp`` and schedule its arrivals."""
+    """Record the spike of neuron ``i`` at step ``stamp`` and schedule its arrivals.
+
+    Static weights are summed into the ring slot of their arrival (``buf_e``, ``buf_i``);
+    the first event of a slot for a neuron puts the neuron on the slot's ``touched`` list.
+    """
     counts[i] += 1
     stats[ST_SPIKES] += 1
     if rec_mask[i]:
@@ -123,10 +393,15 @@ def emit(
     ring = buf_e.shape[0]
     for k in range(s_ptr[i], s_ptr[i + 1]):
         slot = (stamp + s_delay[k]) % ring
+        post = s_post[k]
+        if not mark[slot, post]:
+            mark[slot, post] = True
+            touched[slot, touched_n[slot]] = post
+            touched_n[slot] += 1
         if s_inh[k]:
-            buf_i[slot, s_post[k]] += s_w[k]
+            buf_i[slot, post] += s_w[k]
         else:
-            buf_e[slot, s_post[k]] += s_w[k]
+            buf_e[slot, post] += s_w[k]
     stats[ST_SYN_EVENTS] += s_ptr[i + 1] - s_ptr[i]
     for g in range(row_seg_ptr[i], row_seg_ptr[i + 1]):
         slot = (stamp + seg_delay[g]) % ring
@@ -134,21 +409,24 @@ def emit(
         ev_n[slot] += 1
 
 
-@njit(cache=True)
+@njit(cache=True, _nrt=False)
 def run_steps(
-    j0, j1, dt, plastic_on, kind, params, v, ie, ii, theta, ica, refr, counts, buf_e, buf_i,
-    s_ptr, s_post, s_w, s_delay, s_inh,
-    row_seg_ptr, seg_start, seg_delay, p_post, p_w, p_proj, p_inh, p_trace, p_xpre, p_last,
-    post_ptr, post_syn, post_tr_ptr, post_tr_idx, trace_proj, rules, pre_table, post_decay1, post_decay2,
-    xpost1, xpost2, ev, ev_n, pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng,
+    j0, j1, dt, plastic_on, groups, n_updated, params, v, isyn, ie, ii, theta, ica, refr, flag, flag_words, counts,
+    buf_e, buf_i, touched, touched_n, mark, s_ptr, s_post, s_w, s_delay, s_inh,
+    row_seg_ptr, seg_start, seg_delay, seg_proj, p_post, p_w, seg_xpre, seg_last,
+    post_ptr, post_syn, post_seg, proj_inh, tr_lo, tr_hi, tr_shift, post_tr_ptr, post_tr_idx, trace_proj, rules,
+    pre_table, post_decay1, post_decay2, xpost1, xpost2, x_pre, ev, ev_n,
+    pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng,
     rec_mask, rec_t, rec_i, rec_n, headroom, var_idx, var_code, var_out, stats,
 ):  # fmt: skip
     """Advance from step ``j0`` to ``j1`` (exclusive); return the step reached.
 
     ``headroom`` is the most spikes one step can record; the loop stops before a
-    step that could overflow the record buffers.
+    step that could overflow the record buffers. ``ie`` and ``ii`` are the rows of
+    ``isyn`` (excitatory and inhibitory synaptic state). ``flag`` holds one byte per neuron
+    (all 0 between steps), ``flag_words`` the same memory as 64-bit words; ``x_pre``
+    is scratch space for the largest number of plastic synapses onto one neuron.
     """
-    n = kind.size
     ring = buf_e.shape[0]
     cap = rec_t.size
     for j in range(j0, j1):
@@ -161,7 +439,7 @@ def run_steps(
                 i = pois_idx[k]
                 if pois_start[k] <= j < pois_end[k]:
                     emit(i, j, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_post, s_w, s_delay, s_inh,
-                         buf_e, buf_i, row_seg_ptr, seg_delay, ev, ev_n, stats)  # fmt: skip
+                         buf_e, buf_i, touched, touched_n, mark, row_seg_ptr, seg_delay, ev, ev_n, stats)  # fmt: skip
                 g = geometric_gap(rng, pois_logq[k])
                 pois_next[k] = NEVER if g == NEVER else j + 1 + g
             elif pois_next[k] < j:  # window change or redraw in the past: draw forward
@@ -170,100 +448,57 @@ def run_steps(
         while arr_ptr[0] < arr_step.size and arr_step[arr_ptr[0]] <= j:
             if arr_step[arr_ptr[0]] == j:
                 emit(arr_neuron[arr_ptr[0]], j, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_post, s_w,
-                     s_delay, s_inh, buf_e, buf_i, row_seg_ptr, seg_delay, ev, ev_n, stats)  # fmt: skip
+                     s_delay, s_inh, buf_e, buf_i, touched, touched_n, mark, row_seg_ptr, seg_delay, ev, ev_n,
+                     stats)  # fmt: skip
             arr_ptr[0] += 1
         # 2. arrivals at plastic synapses (post traces hold their value at time j)
         for e in range(ev_n[slot]):
             g = ev[slot, e]
-            for k in range(seg_start[g], seg_start[g + 1]):
-                r = p_proj[k]
-                post = p_post[k]
-                x_post = xpost1[p_trace[k]]
-                rk = rules[r, R_KIND]
-                if plastic_on and x_post != 0.0:
-                    w = p_w[k]
-                    if rk == RULE_ADDITIVE:
-                        w -= rules[r, R_DEP] * rules[r, R_W_MAX] * x_post
-                    elif rk == RULE_MULTIPLICATIVE:
-                        w -= rules[r, R_DEP] * (w - rules[r, R_W_MIN]) * x_post
-                    else:
-                        w -= rules[r, R_DEP] * x_post
-                    p_w[k] = min(max(w, rules[r, R_W_MIN]), rules[r, R_W_MAX])
-                    stats[ST_PLASTIC_UPDATES] += 1
-                if p_inh[k]:  # the arriving spike carries the weight after its own depression
-                    ii[post] += p_w[k]
-                else:
-                    ie[post] += p_w[k]
-                if rk == RULE_DIEHL_COOK:
-                    p_xpre[k] = 1.0
-                else:
-                    p_xpre[k] = _table_decay(p_xpre[k], j - p_last[k], pre_table, r, dt, rules[r, R_TAU_PRE]) + 1.0
-                p_last[k] = j
+            stats[ST_PLASTIC_UPDATES] += arrive(g, j, dt, plastic_on, seg_start, seg_proj, p_post, p_w, seg_xpre,
+                                                seg_last, rules, pre_table, tr_shift, proj_inh, xpost1, isyn)  # fmt: skip
             stats[ST_SYN_EVENTS] += seg_start[g + 1] - seg_start[g]
         ev_n[slot] = 0
         # postsynaptic traces advance to the end of the step
-        for tr in range(xpost1.size):
-            xpost1[tr] *= post_decay1[tr]
-            xpost2[tr] *= post_decay2[tr]
+        decay_post_traces(rules, tr_lo, tr_hi, post_decay1, post_decay2, xpost1, xpost2)
         # static arrivals
-        for i in range(n):
+        for q in range(touched_n[slot]):
+            i = touched[slot, q]
+            mark[slot, i] = False
             if buf_e[slot, i] != 0.0:
                 ie[i] += buf_e[slot, i]
                 buf_e[slot, i] = 0.0
             if buf_i[slot, i] != 0.0:
                 ii[i] += buf_i[slot, i]
                 buf_i[slot, i] = 0.0
-        # 3. neurons
-        for i in range(n):
-            kd = kind[i]
-            if kd != KIND_CURR and kd != KIND_COND:
-                continue
-            stats[ST_NEURON_UPDATES] += 1
-            if refr[i] > 0:
-                refr[i] -= 1
-            elif kd == KIND_CURR:
-                v[i] = (
-                    params[i, C_V_REST]
-                    + (v[i] - params[i, C_V_REST]) * params[i, C_P22]
-                    + ie[i] * params[i, C_P21E]
-                    - ii[i] * params[i, C_P21I]
-                    - ica[i] * params[i, C_P21CA]
-                    + params[i, C_I_OFFSET] * params[i, C_P20]
-                )
-            elif ie[i] == 0.0 and ii[i] == 0.0:  # no conductance: the leak alone (P22 = exp(-dt gL / cm))
-                v[i] = (
-                    params[i, C_V_REST]
-                    + (v[i] - params[i, C_V_REST]) * params[i, C_P22]
-                    + params[i, C_I_OFFSET] * params[i, C_P20]
-                )
+        touched_n[slot] = 0
+        # 3. neurons, group by group; then each group's spikes in increasing index
+        stats[ST_NEURON_UPDATES] += n_updated
+        for grp in range(groups.shape[0]):
+            lo, hi, flags = groups[grp, G_LO], groups[grp, G_HI], groups[grp, G_FLAGS]
+            if groups[grp, G_KIND] == KIND_CURR:
+                n_spikes = update_curr(lo, hi, flags, params, v, ie, ii, ica, refr, flag)
             else:
-                ge = ie[i] * params[i, C_FE]
-                gi = ii[i] * params[i, C_FI]
-                gt = params[i, C_GL] + ge + gi
-                v_inf = (
-                    params[i, C_GL] * params[i, C_V_REST]
-                    + ge * params[i, C_E_REV_E]
-                    + gi * params[i, C_E_REV_I]
-                    + params[i, C_I_OFFSET]
-                ) / gt
-                v[i] = v_inf + (v[i] - v_inf) * np.exp(-dt * gt / params[i, C_CM])
-            # decay; values below FLUSH (1e-18 nA or uS, ~1e-20 mV per step) are exactly 0 from then on
-            ie[i] = _flush(ie[i] * params[i, C_P11E])
-            ii[i] = _flush(ii[i] * params[i, C_P11I])
-            ica[i] = _flush(ica[i] * params[i, C_P11CA])
-            if plastic_on:
-                theta[i] *= params[i, C_THETA_DECAY]
-            if v[i] >= params[i, C_V_THRESH] + theta[i] and refr[i] == 0:
-                v[i] = params[i, C_V_RESET]
-                refr[i] = np.int64(params[i, C_REFRAC])
-                ica[i] += params[i, C_I_ALPHA]
-                if plastic_on:
-                    theta[i] += params[i, C_THETA_PLUS]
-                    _potentiate(i, j + 1, dt, post_ptr, post_syn, p_proj, p_w, p_xpre, p_last, p_trace,
-                                rules, pre_table, xpost2, stats)  # fmt: skip
-                _post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2)
-                emit(i, j + 1, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_post, s_w, s_delay, s_inh,
-                     buf_e, buf_i, row_seg_ptr, seg_delay, ev, ev_n, stats)  # fmt: skip
+                n_spikes = update_cond(lo, hi, flags, params, dt, plastic_on, v, ie, ii, theta, refr, flag)
+            word = lo >> 3
+            while n_spikes > 0:
+                if flag_words[word] != 0:
+                    for i in range(word << 3, (word << 3) + 8):
+                        if flag[i]:
+                            flag[i] = False
+                            n_spikes -= 1
+                            v[i] = params[lo, C_V_RESET]
+                            refr[i] = np.int64(params[lo, C_REFRAC])
+                            ica[i] += params[lo, C_I_ALPHA]
+                            if plastic_on:
+                                theta[i] += params[lo, C_THETA_PLUS]
+                                stats[ST_PLASTIC_UPDATES] += potentiate(
+                                    i, j + 1, dt, post_ptr, post_syn, post_seg, seg_proj, seg_xpre, seg_last, p_w,
+                                    rules, pre_table, tr_shift, xpost2, x_pre,
+                                )  # fmt: skip
+                            post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2)
+                            emit(i, j + 1, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_post, s_w, s_delay, s_inh,
+                                 buf_e, buf_i, touched, touched_n, mark, row_seg_ptr, seg_delay, ev, ev_n, stats)  # fmt: skip
+                word += 1
         # 4. state recording
         if var_idx.size:
             row = j - j0
@@ -282,54 +517,3 @@ def run_steps(
                     var_out[row, r] = ica[i]
         stats[ST_STEPS] += 1
     return j1
-
-
-@njit(cache=True, inline="always")
-def _table_decay(x, steps, table, r, dt, tau):  # fmt: skip
-    """``x * exp(-steps * dt / tau)`` with the factor from rule ``r``'s table when it holds it."""
-    if x == 0.0:
-        return 0.0
-    if steps < table.shape[1]:
-        return x * table[r, steps]
-    return x * np.exp(-steps * dt / tau)
-
-
-@njit(cache=True)
-def _potentiate(i, t, dt, post_ptr, post_syn, p_proj, p_w, p_xpre, p_last, p_trace, rules, pre_table, xpost2, stats):  # fmt: skip
-    """Potentiate the plastic synapses onto neuron ``i``, which spikes at step ``t``."""
-    for q in range(post_ptr[i], post_ptr[i + 1]):
-        k = post_syn[q]
-        r = p_proj[k]
-        x_pre = _table_decay(p_xpre[k], t - p_last[k], pre_table, r, dt, rules[r, R_TAU_PRE])
-        rk = rules[r, R_KIND]
-        w = p_w[k]
-        w_max = rules[r, R_W_MAX]
-        if rk == RULE_ADDITIVE:
-            if x_pre == 0.0:
-                continue
-            w += rules[r, R_POT] * w_max * x_pre
-        elif rk == RULE_MULTIPLICATIVE:
-            if x_pre == 0.0:
-                continue
-            w += rules[r, R_POT] * (w_max - w) * x_pre
-        else:
-            factor = (x_pre - rules[r, R_X_TAR]) * (w_max - w) ** rules[r, R_MU]
-            if rules[r, R_TAU_POST2] > 0.0:
-                factor *= xpost2[p_trace[k]]
-            if factor == 0.0:
-                continue
-            w += rules[r, R_POT] * factor
-        p_w[k] = min(max(w, rules[r, R_W_MIN]), w_max)
-        stats[ST_PLASTIC_UPDATES] += 1
-
-
-@njit(cache=True)
-def _post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2):  # fmt: skip
-    """Update the postsynaptic traces of neuron ``i`` for its spike (traces are at its time already)."""
-    for q in range(post_tr_ptr[i], post_tr_ptr[i + 1]):
-        tr = post_tr_idx[q]
-        if rules[trace_proj[tr], R_KIND] == RULE_DIEHL_COOK:
-            xpost1[tr] = 1.0
-            xpost2[tr] = 1.0
-        else:
-            xpost1[tr] += 1.0

@@ -45,6 +45,7 @@ class ReferenceSimulation(Simulation):
         super().__init__(network, backend="reference", dt=dt, seed=seed)
         lay = self._lay = build_layout(network, dt, seed)
         n = lay.n
+        self._x_pre = np.zeros(int(np.diff(lay.post_ptr).max(initial=0)))
         self._rec_mask = np.zeros(n, dtype=np.bool_)
         names = list(network.populations) if record_spikes is None else list(record_spikes)
         for name in names:
@@ -95,16 +96,21 @@ class ReferenceSimulation(Simulation):
         n = lay.n
         self._step = 0
         self._v = lay.params[:, C_V_INIT].copy()
-        self._ie = np.zeros(n)
-        self._ii = np.zeros(n)
+        self._isyn = np.zeros((2, n))
+        self._ie, self._ii = self._isyn[0], self._isyn[1]
         self._ica = lay.params[:, C_I_CA_INIT].copy()
         self._refr = np.zeros(n, dtype=np.int64)
         self._counts = np.zeros(n, dtype=np.int64)
         self._buf_e = np.zeros((lay.ring, n))
         self._buf_i = np.zeros((lay.ring, n))
+        self._touched = np.zeros((lay.ring, n), dtype=np.int64)
+        self._touched_n = np.zeros(lay.ring, dtype=np.int64)
+        self._mark = np.zeros((lay.ring, n), dtype=np.bool_)
+        self._flag = np.zeros(-(-n // 8) * 8, dtype=np.bool_)
+        self._flag_words = self._flag.view(np.uint64)
         n_seg = lay.seg_delay.size
-        self._p_xpre = np.zeros(lay.p_w.size)
-        self._p_last = np.full(lay.p_w.size, _PAST, dtype=np.int64)
+        self._seg_xpre = np.zeros(n_seg)
+        self._seg_last = np.full(n_seg, _PAST, dtype=np.int64)
         self._xpost1 = np.zeros(lay.n_traces)
         self._xpost2 = np.zeros(lay.n_traces)
         self._spike_chunks: list[tuple[np.ndarray, np.ndarray]] = []
@@ -176,14 +182,17 @@ class ReferenceSimulation(Simulation):
         j = j0
         while j < j1:
             reached = kernels.run_steps(
-                j, j1, self._dt, self._plastic, lay.kind, lay.params, self._v, self._ie, self._ii, self._theta,
-                self._ica, self._refr, self._counts, self._buf_e, self._buf_i,
+                j, j1, self._dt, self._plastic, lay.groups, lay.n_updated, lay.params, self._v, self._isyn,
+                self._ie, self._ii, self._theta, self._ica, self._refr, self._flag, self._flag_words, self._counts,
+                self._buf_e, self._buf_i, self._touched, self._touched_n, self._mark,
                 lay.s_ptr, lay.s_post, lay.s_w, lay.s_delay, lay.s_inh,
-                lay.row_seg_ptr, lay.seg_start, lay.seg_delay, lay.p_post, lay.p_w, lay.p_proj, lay.p_inh,
-                lay.p_trace, self._p_xpre, self._p_last, lay.post_ptr, lay.post_syn, lay.post_tr_ptr,
-                lay.post_tr_idx, lay.trace_proj, lay.rules, lay.pre_table, lay.post_decay1, lay.post_decay2,
-                self._xpost1, self._xpost2, self._ev, self._ev_n, self._pois_idx, self._pois_logq, self._pois_next,
-                self._pois_start, self._pois_end, self._arr_step, self._arr_neuron, self._arr_ptr, self._rng,
+                lay.row_seg_ptr, lay.seg_start, lay.seg_delay, lay.seg_proj, lay.p_post, lay.p_w,
+                self._seg_xpre, self._seg_last, lay.post_ptr, lay.post_syn, lay.post_seg, lay.proj_inh,
+                lay.tr_lo, lay.tr_hi, lay.tr_shift, lay.post_tr_ptr, lay.post_tr_idx, lay.trace_proj, lay.rules,
+                lay.pre_table, lay.post_decay1, lay.post_decay2, self._xpost1, self._xpost2, self._x_pre,
+                self._ev, self._ev_n,
+                self._pois_idx, self._pois_logq, self._pois_next, self._pois_start, self._pois_end,
+                self._arr_step, self._arr_neuron, self._arr_ptr, self._rng,
                 self._rec_mask, self._rec_t, self._rec_i, self._rec_n, self._headroom,
                 self._var_idx, self._var_code, var_out[j - j0 :], self._stats,
             )  # fmt: skip

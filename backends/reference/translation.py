@@ -5,6 +5,10 @@ insertion order). Per-neuron parameters become columns of one ``(N, K)`` array o
 exact-integration propagators; static synapses become a CSR matrix by global
 presynaptic index; plastic synapses a second CSR whose rows are split into
 *segments* of equal delay, so a presynaptic spike schedules one event per segment.
+All synapses of a segment see the same arrivals, so the presynaptic STDP trace is
+held once per segment. Neurons are split into *groups*: runs of consecutive neurons
+of one population with identical parameters, updated by one loop with scalar
+parameters.
 """
 
 from __future__ import annotations
@@ -12,6 +16,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from neurovpr.cells import (
     IF_cond_exp,
@@ -57,12 +62,28 @@ KIND_CURR, KIND_COND, KIND_POISSON, KIND_ARRAY = 0, 1, 2, 3
     N_COLS,
 ) = range(25)
 
+# Columns that hold initial values, not parameters of the dynamics.
+INIT_COLS = (C_V_INIT, C_I_CA_INIT)
+
+# Columns of the group table, and the group flags.
+G_LO, G_HI, G_KIND, G_FLAGS, N_GROUP_COLS = range(5)
+#: The group receives inhibitory synapses (otherwise its inhibitory current stays 0).
+F_INH = 1
+#: The group has the Ca2+ adaptation current (otherwise it stays 0).
+F_CA = 2
+#: The group has an adaptive threshold.
+F_ADAPTIVE = 4
+
 # Rule kinds and columns of the plasticity rule table.
 RULE_ADDITIVE, RULE_MULTIPLICATIVE, RULE_DIEHL_COOK = 0, 1, 2
 (R_KIND, R_POT, R_DEP, R_W_MIN, R_W_MAX, R_TAU_PRE, R_TAU_POST, R_MU, R_X_TAR, R_TAU_POST2, N_RULE_COLS) = range(11)
 
-# Number of whole-step delays for which the presynaptic trace decay is tabulated.
+# Number of whole-step delays for which the presynaptic trace decay is tabulated with numpy;
+# the table then goes on (computed as the kernels compute it) until the decay is exactly 0,
+# i.e. past exp(-PRE_ZERO), for at most MAX_PRE_TABLE steps.
 PRE_TABLE = 4096
+PRE_ZERO = 760.0
+MAX_PRE_TABLE = 1 << 17
 
 # Recordable variable codes.
 VAR_CODES = {"v": 0, "isyn_exc": 1, "gsyn_exc": 1, "isyn_inh": 2, "gsyn_inh": 2, "theta": 3, "i_ca2": 4}
@@ -154,23 +175,31 @@ class Layout:
     offsets: dict[str, tuple[int, int]]
     kind: np.ndarray
     params: np.ndarray
+    # (G, N_GROUP_COLS) neuron groups of identical parameters (sources excluded); neurons they update
+    groups: np.ndarray
+    n_updated: int
     # static synapses, CSR by global pre
     s_ptr: np.ndarray
     s_post: np.ndarray
     s_w: np.ndarray
     s_delay: np.ndarray
     s_inh: np.ndarray
-    # plastic synapses, CSR by global pre split into equal-delay segments
+    # plastic synapses, CSR by global pre split into equal-delay segments of one projection
     row_seg_ptr: np.ndarray
     seg_start: np.ndarray
     seg_delay: np.ndarray
+    seg_proj: np.ndarray
     p_post: np.ndarray
     p_w: np.ndarray
-    p_proj: np.ndarray
-    p_inh: np.ndarray
-    p_trace: np.ndarray
+    # incoming plastic synapses by post neuron: synapse index and its segment
     post_ptr: np.ndarray
     post_syn: np.ndarray
+    post_seg: np.ndarray
+    # per plastic projection: inhibitory?, post traces [tr_lo, tr_hi), trace index = post + tr_shift
+    proj_inh: np.ndarray
+    tr_lo: np.ndarray
+    tr_hi: np.ndarray
+    tr_shift: np.ndarray
     post_tr_ptr: np.ndarray
     post_tr_idx: np.ndarray
     trace_proj: np.ndarray
@@ -201,12 +230,20 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
     n = start
     kind = np.concatenate(kinds)
     params = np.ascontiguousarray(np.concatenate(tables))
+    inhibited = {proj.post for proj in network.projections.values() if proj.receptor_type == "inhibitory"}
+    groups = [
+        _groups(offsets[pop.name][0], table, int(k[0]), _flags(pop.cell_type, pop.name in inhibited))
+        for pop, k, table in zip(network.populations.values(), kinds, tables, strict=True)
+        if pop.size and int(k[0]) in (KIND_CURR, KIND_COND)
+    ]
+    group_table = np.concatenate(groups) if groups else np.zeros((0, N_GROUP_COLS), dtype=np.int64)
 
     st = {k: [] for k in ("pre", "post", "w", "d", "inh", "proj", "canon")}
-    pl = {k: [] for k in ("pre", "post", "w", "d", "inh", "proj", "canon", "trace")}
+    pl = {k: [] for k in ("pre", "post", "w", "d", "inh", "proj", "canon")}
     rules, proj_pre, proj_post = [], {}, {}
     trace_proj: list[np.ndarray] = []
     n_traces = 0
+    proj_inh, tr_lo, tr_hi, tr_shift = [], [], [], []
     static_names, plastic_names = [], []
     for proj in network.projections.values():
         conns = expand(network, proj, dt=dt, seed=seed)
@@ -227,7 +264,10 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
         if proj.plastic:
             rules.append(rule_row(proj.synapse))
             n_post = network.populations[proj.post].size
-            target["trace"].append(n_traces + conns.post)
+            proj_inh.append(proj.receptor_type == "inhibitory")
+            tr_lo.append(n_traces)
+            tr_hi.append(n_traces + n_post)
+            tr_shift.append(n_traces - post0)
             trace_proj.append(np.full(n_post, pid, dtype=np.int64))
             n_traces += n_post
 
@@ -259,7 +299,7 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
     p_post = cat(pl["post"], np.int64)[porder]
     post_order = np.argsort(p_post, kind="stable")
     post_ptr = np.concatenate([[0], np.cumsum(np.bincount(p_post, minlength=n))]).astype(np.int64)
-    p_trace = cat(pl["trace"], np.int64)[porder]
+    seg_of = np.repeat(np.arange(seg_first.size, dtype=np.int64), np.diff(seg_start))
     # which post traces belong to each neuron
     tr_neuron = np.zeros(n_traces, dtype=np.int64)
     base = 0
@@ -274,6 +314,7 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
     tr_rule = cat(trace_proj, np.int64)
     # exp(-k dt / tau_pre) for k < PRE_TABLE steps, per rule; per-step decay factors of the post traces
     pre_table = np.exp(-np.arange(PRE_TABLE)[None, :] * dt / rule_table[:, R_TAU_PRE][:, None]) if rules else np.ones((0, 1))
+    pre_table = extend_pre_table(np.ascontiguousarray(pre_table), dt, np.ascontiguousarray(rule_table[:, R_TAU_PRE]))
     post_decay1 = np.exp(-dt / rule_table[tr_rule, R_TAU_POST]) if rules else np.zeros(0)
     tau2 = rule_table[tr_rule, R_TAU_POST2] if rules else np.zeros(0)
     post_decay2 = np.where(tau2 > 0, np.exp(-dt / np.where(tau2 > 0, tau2, 1.0)), 0.0)
@@ -282,6 +323,8 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
         offsets=offsets,
         kind=kind,
         params=params,
+        groups=group_table,
+        n_updated=int(np.sum(group_table[:, G_HI] - group_table[:, G_LO])),
         s_ptr=s_ptr,
         s_post=cat(st["post"], np.int64)[order],
         s_w=cat(st["w"], np.float64)[order],
@@ -290,13 +333,16 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
         row_seg_ptr=row_seg_ptr,
         seg_start=seg_start,
         seg_delay=seg_delay,
-        p_post=p_post,
+        seg_proj=p_proj_s[seg_first].astype(np.int64),
+        p_post=p_post.astype(np.uint32) if n < 2**32 else p_post,
         p_w=cat(pl["w"], np.float64)[porder],
-        p_proj=p_proj_s,
-        p_inh=cat(pl["inh"], np.bool_)[porder],
-        p_trace=p_trace,
         post_ptr=post_ptr,
         post_syn=post_order.astype(np.int64),
+        post_seg=seg_of[post_order],
+        proj_inh=np.array(proj_inh, dtype=np.bool_),
+        tr_lo=np.array(tr_lo, dtype=np.int64),
+        tr_hi=np.array(tr_hi, dtype=np.int64),
+        tr_shift=np.array(tr_shift, dtype=np.int64),
         post_tr_ptr=post_tr_ptr,
         post_tr_idx=tr_order.astype(np.int64),
         trace_proj=tr_rule,
@@ -313,6 +359,53 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
     )
 
 
+@njit(cache=True)
+def extend_pre_table(head: np.ndarray, dt: float, taus: np.ndarray) -> np.ndarray:
+    """``head`` (``exp(-k dt / tau)`` per rule) extended with the factors the kernels compute past it.
+
+    Each factor ``exp(-k * dt / tau)`` is evaluated one at a time, as the kernels'
+    ``table_decay`` does past the table, so a look-up gives the same number. The table
+    goes on until every rule's argument is below ``-PRE_ZERO`` (where ``exp`` is exactly
+    0), for at most ``MAX_PRE_TABLE`` columns.
+    """
+    n_rules, width = head.shape
+    need = width
+    for r in range(n_rules):
+        need = max(need, int(PRE_ZERO * taus[r] / dt) + 2)
+    need = min(need, MAX_PRE_TABLE)
+    table = np.zeros((n_rules, need))
+    for r in range(n_rules):
+        table[r, :width] = head[r]
+        k = width
+        while k < need:  # one call at a time (a loop with an exit is never vectorised)
+            factor = np.exp(-k * dt / taus[r])
+            if factor == 0.0:
+                break
+            table[r, k] = factor
+            k += 1
+    return table
+
+
+def _flags(cell: object, inhibited: bool) -> int:
+    """The group flags of a population of ``cell`` neurons (``inhibited``: it receives inhibitory synapses)."""
+    flags = F_INH if inhibited else 0
+    if isinstance(cell, IF_curr_exp_ca2_adaptive):
+        flags |= F_CA
+    if isinstance(cell, IF_cond_exp_adaptive):
+        flags |= F_ADAPTIVE
+    return flags
+
+
+def _groups(lo: int, table: np.ndarray, kind: int, flags: int) -> np.ndarray:
+    """Runs of consecutive neurons with identical parameters, as rows of the group table."""
+    dynamics = np.delete(table, INIT_COLS, axis=1)
+    first = np.concatenate([[0], 1 + np.flatnonzero(np.any(dynamics[1:] != dynamics[:-1], axis=1))])
+    last = np.concatenate([first[1:], [table.shape[0]]])
+    out = np.empty((first.size, N_GROUP_COLS), dtype=np.int64)
+    out[:, G_LO], out[:, G_HI], out[:, G_KIND], out[:, G_FLAGS] = lo + first, lo + last, kind, flags
+    return out
+
+
 def _positions(order: np.ndarray, proj_parts: list[np.ndarray], names: list[str]) -> dict[str, np.ndarray]:
     """For each projection, the position in the sorted synapse arrays of each canonical connection."""
     inverse = np.empty_like(order)
@@ -322,4 +415,3 @@ def _positions(order: np.ndarray, proj_parts: list[np.ndarray], names: list[str]
         out[name] = inverse[start : start + part.size]
         start += part.size
     return out
-
