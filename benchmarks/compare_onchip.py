@@ -17,14 +17,14 @@ Train LoCS-Net with ``--train-args "--input-coding regular"`` to compare the bac
 numerics on identical input spikes: with Poisson input every backend draws its own
 spikes, and over a 30 ms window the place layer's argmax then differs between backends
 for most queries whatever the numerics. ``lava`` and ``lava-fixed`` run the paper-sized
-LoCS-Net at about a minute or more per query (its neuron-to-neuron convolutions become
-Lava ``DelaySparse`` processes), so leave them out of ``--backends`` for hundreds of queries.
+LoCS-Net at a fraction of a second per query (the Lava runtime is compiled once and reset
+per query).
 
 Usage (from the repository root)::
 
     python benchmarks/compare_onchip.py --model locsnet                   # 600 places, 200 queries
     python benchmarks/compare_onchip.py --model locsnet --places 2400 --queries 300 \
-        --backends reference,nengo,nengo-loihi --train-args "--input-coding regular"
+        --train-args "--input-coding regular"
     python benchmarks/compare_onchip.py --model modular --places 50 --train-args "--epochs 10"
 """
 
@@ -40,7 +40,8 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.compare import compare_model, plot_comparison
+from neurovpr.compare import compare_model
+from neurovpr.compare_plots import plot_comparison
 from neurovpr.data.generic import open_traverse, write_generic
 from neurovpr.fileio import atomic_write_text
 from neurovpr.paths import shared_datasets

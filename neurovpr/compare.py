@@ -24,7 +24,6 @@ from __future__ import annotations
 
 import importlib.metadata
 import math
-import time
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -43,7 +42,6 @@ __all__ = [
     "agreement",
     "spike_count_correlation",
     "compare_model",
-    "plot_comparison",
     "PRIMARY_METRICS",
 ]
 
@@ -449,82 +447,3 @@ def _one_backend(
         predictions=res["predictions"],
         output_counts=res["output_counts"],
     )
-
-
-def _bars(ax: Any, x: np.ndarray, values: list[float | None], color: str, ylabel: str) -> None:
-    """One bar per backend; a log axis when the values span more than a factor of 20."""
-    heights = np.array([np.nan if v is None else v for v in values], dtype=np.float64)
-    ax.bar(x, heights, 0.6, color=color)
-    ax.set_ylabel(ylabel)
-    positive = heights[np.isfinite(heights) & (heights > 0)]
-    if positive.size and positive.max() > 20 * positive.min():
-        ax.set_yscale("log")
-
-
-def plot_comparison(comparison: Comparison, path: str | Path) -> Path:
-    """Bar charts of accuracy, agreement and correlation, time per query and (with a hwspec) energy.
-
-    Refused backends keep their place on the axis, marked "refused". Returns the PNG's path.
-    """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
-    path = Path(path)
-    if path.suffix.lower() != ".png":
-        raise ValidationError(f"plot path {path} must end in .png.")
-    rows = comparison.rows
-    x = np.arange(len(rows))
-    labels = [r.backend for r in rows]
-    panels = 4 if comparison.hardware is not None else 3
-    fig = Figure(figsize=(4.2 * panels, 4.0), dpi=100)
-    FigureCanvasAgg(fig)
-    axes = [fig.add_subplot(1, panels, i + 1) for i in range(panels)]
-
-    def grouped(ax: Any, series: dict[str, list[float | None]], ylabel: str) -> None:
-        width = 0.8 / max(len(series), 1)
-        for k, (label, values) in enumerate(series.items()):
-            heights = [np.nan if v is None else v for v in values]
-            ax.bar(x - 0.4 + width * (k + 0.5), heights, width, label=label)
-        ax.set_ylabel(ylabel)
-        known = [v for vals in series.values() for v in vals if v is not None]
-        ax.set_ylim(min([0.0, *known]), 1.05)
-        if series:
-            ax.legend(fontsize=7, loc="lower right")
-
-    metrics = comparison.shown_metrics()
-    grouped(axes[0], {m: [r.metrics.get(m) if r.ran else None for r in rows] for m in metrics}, "accuracy")
-    axes[0].set_title(f"{comparison.model}: accuracy")
-    ref = comparison.reference_backend or "-"
-    grouped(
-        axes[1],
-        {
-            "prediction agreement": [r.agreement for r in rows],
-            "spike-count r": [r.spike_count_correlation for r in rows],
-        },
-        "agreement / Pearson r",
-    )
-    axes[1].set_title(f"against {ref}")
-    secs = [r.seconds_per_query if r.ran else None for r in rows]
-    _bars(axes[2], x, secs, "tab:gray", "seconds per query")
-    axes[2].set_title("time per query (measured)")
-    if comparison.hardware is not None:
-        joules = [(r.energy or {}).get("joules_per_inference") if r.ran else None for r in rows]
-        _bars(axes[3], x, joules, "tab:green", "joules per inference (estimated)")
-        axes[3].set_title(f"energy on {comparison.hardware}")
-    for ax in axes:
-        ax.set_xticks(x)
-        ax.set_xticklabels(labels, rotation=30, ha="right", fontsize=8)
-        for i, row in enumerate(rows):
-            if not row.ran:
-                ax.text(i, 0.5, "refused", transform=ax.get_xaxis_transform(), ha="center", va="center",
-                        rotation=90, color="tab:red", fontsize=8)  # fmt: skip
-    fig.suptitle(f"{comparison.model} on {len(rows)} backends ({comparison.run})", fontsize=9)
-    fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{time.monotonic_ns()}.tmp.png")
-    try:
-        fig.savefig(tmp, format="png")
-        tmp.replace(path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path
