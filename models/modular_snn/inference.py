@@ -12,7 +12,9 @@ module. Every function is a pure function of arrays.
   once per modular SNN (ensemble member) from U(40, 100) for reference sets below 1000
   places and from U(600, 800) from 1000 places on (:func:`draw_hyperactive_threshold`).
   ``measure="images"`` counts the reference images a neuron fired for instead of its
-  spikes (VPRSNN's ``np.count_nonzero`` over the reference responses).
+  spikes (VPRSNN's ``np.count_nonzero`` over the reference responses). With several
+  training traverses the responses and activity are taken over all of them
+  (:mod:`.runs` says how).
 - Module output (Eq. 7) and fusion (Eq. 9): the similarity of query ``q`` to place ``p``
   is the sum of the query spikes of the neurons assigned to ``p``; modules hold disjoint
   places, so fusing them is summing every module's contribution into one ``R x Q``

@@ -77,27 +77,46 @@ def _network_from_bytes(data: bytes) -> nv.Network:
         return nv.load(path)
 
 
-def train_job(reference: np.ndarray, settings: str, name: str, places: np.ndarray, seed: int, fingerprint: str) -> dict[str, Any]:
+def train_job(
+    reference: np.ndarray,
+    settings: str,
+    name: str,
+    places: np.ndarray,
+    seed: int,
+    fingerprint: str,
+    n_traverses: int = 1,
+) -> dict[str, Any]:
     """Train one module and return its files' bytes (runs in a worker).
 
     ``settings`` is :meth:`TrainingSettings.as_dict` as JSON (plain data crosses
-    process boundaries). The record holds the module's places, its responses to them
-    (``own_responses``, for the assignment), the total spikes and the number of
-    reference images each neuron fired for (for hyperactive-neuron detection), the
-    seed, the timing and the job's fingerprint.
+    process boundaries). ``reference`` holds the ``n_traverses`` training traverses'
+    images one after another (``(n_traverses * N, pixels)``, the reference first).
+    The record holds the module's places, its responses to them (``own_responses``,
+    summed over the training traverses, for the assignment), the total spikes and the
+    number of training images each neuron fired for, over the images of every training
+    traverse (``total_spikes``, ``images_fired``, for hyperactive-neuron detection;
+    ``n_traverses`` says how many traverses they cover), the seed, the timing and the
+    job's fingerprint.
     """
     cfg = TrainingSettings.from_dict(json.loads(settings))
     places = np.asarray(places, dtype=np.int64)
-    network, responses, timing = train_module(reference, places, cfg, seed, name=name)
+    t = int(n_traverses)
+    if t < 1 or len(reference) % t:
+        raise nv.ValidationError(f"module {name!r}: {len(reference)} training images cannot be {t} traverses of equal length.")
+    n_ref = len(reference) // t
+    traverses = [reference[k * n_ref : (k + 1) * n_ref] for k in range(t)]
+    network, responses, timing = train_module(traverses[0], places, cfg, seed, name=name, extra_references=traverses[1:])
+    own = responses.reshape(t, n_ref, -1)[:, places].sum(axis=0, dtype=responses.dtype)
     record = npz_bytes(
         places=places,
-        own_responses=responses[places],
+        own_responses=own,
         total_spikes=reference_activity(responses, measure="spikes"),
         images_fired=reference_activity(responses, measure="images"),
+        n_traverses=np.int64(t),
         theta=network.populations["exc"].cell_type.theta_init,
         seed=np.int64(seed),
         **{key: np.float64(value) for key, value in timing.items()},
-        n_presentations=np.int64(cfg.epochs * places.size + len(reference)),
+        n_presentations=np.int64(t * (cfg.epochs * places.size + n_ref)),
         fingerprint=np.str_(fingerprint),
     )
     return {"name": name, "network": _network_bytes(network), "record": record, "timing": timing}

@@ -1,7 +1,10 @@
 """``neurovpr train/eval --model modular``: the command-line face of the Modular SNN.
 
 ``train`` reads a dataset (generic or published layout), preprocesses the reference
-traverse (28x28, patch-normalised), trains every module of every ensemble member in
+traverse (28x28, patch-normalised), adds the reference traverse of every
+``--extra-reference`` dataset as further training images of the same places (place
+``i`` of each is place ``i`` of the main reference, as the paper trains on two reference
+traverses; see :mod:`.runs`), trains every module of every ensemble member in
 parallel (local processes, or Dask with ``--scheduler``) into ``RUN_DIR`` and writes
 ``run.json``. ``eval`` shows the query traverse to every module (cached in the run),
 builds the members' and the ensemble's similarity and distance matrices, applies
@@ -40,6 +43,7 @@ _TRAIN_DEFAULTS: dict[str, Any] = {
     "module_size": 25,
     "neurons": 400,
     "places": None,
+    "extra_reference": None,
     "workers": None,
     "max_modules": None,
     "stdp": "paper",
@@ -65,6 +69,39 @@ def _add(parser: argparse._ActionsContainer, *flags: str, **kwargs: Any) -> None
 def _opt(args: argparse.Namespace, name: str, defaults: dict[str, Any]) -> Any:
     value = getattr(args, name, None)
     return defaults[name] if value is None else value
+
+
+def load_extra_references(paths: Any, main: str | Path, n_places: int, places: int | None, progress: bool) -> list[Any]:
+    """Open every ``--extra-reference`` dataset, check its place count and return its preprocessed reference images.
+
+    Every count is checked before any image is preprocessed. With ``places`` the first
+    ``places`` reference places of each are kept (it needs at least that many);
+    without, each must have exactly ``n_places``, the count of ``main``.
+    """
+    from neurovpr.data.generic import open_traverse
+
+    traverses = []
+    for path in paths or ():
+        traverse = open_traverse(path)
+        have = traverse.n_reference
+        if places is None and have != n_places:
+            raise nv.ValidationError(
+                f"the extra reference traverse {path} has {have} reference places but {main} has {n_places}; place i of "
+                "every training traverse must be the same place, so the counts must match."
+            )
+        if places is not None and have < n_places:
+            raise nv.ValidationError(
+                f"the extra reference traverse {path} has {have} reference places, fewer than the {n_places} used from "
+                f"{main} (--places {n_places})."
+            )
+        if len(traverse.references) > 1:
+            print(
+                f"note: {path} has {len(traverse.references)} reference traverses; this model trains on the first "
+                f"({traverse.reference.name}) only.",
+                file=sys.stderr,
+            )
+        traverses.append(traverse.reference.subset(slice(0, n_places)) if have != n_places else traverse.reference)
+    return [t.preprocessed(progress=progress) for t in traverses]
 
 
 def load_traverse(path: str | Path, places: int | None = None) -> Any:
@@ -93,6 +130,15 @@ class ModularSNNPlugin(ModelPlugin):
         _add(parser, "--module-size", type=int, help="places per module (default 25)")
         _add(parser, "--neurons", type=int, help="excitatory (and inhibitory) neurons per module (default 400)")
         _add(parser, "--places", type=int, help="use only the first N reference places (default all)")
+        _add(
+            parser,
+            "--extra-reference",
+            action="append",
+            type=Path,
+            metavar="PATH",
+            help="another dataset whose reference traverse holds the same places in the same order; its images are "
+            "trained on too (repeatable; --places applies to it as well)",
+        )
         _add(parser, "--workers", type=int, help="local worker processes (default: the CPU cores)")
         _add(parser, "--max-modules", type=int, help="train at most N unfinished modules, then stop (continue with --resume)")
         _add(parser, "--stdp", choices=("paper", "published"), help="learning rule form (default paper)")
@@ -140,11 +186,18 @@ class ModularSNNPlugin(ModelPlugin):
                 f"first ({traverse.reference.name}) only.",
                 file=sys.stderr,
             )
+        extra_paths = [Path(p) for p in (opt["extra_reference"] or [])]
+        extras = load_extra_references(extra_paths, args.data, traverse.n_reference, opt["places"], not opt["no_progress"])
         reference = traverse.reference.preprocessed(progress=not opt["no_progress"])
         note = describe_plan(len(reference), settings.module_size)
         if len(reference) % settings.module_size:
             print(f"note: {note}.", file=sys.stderr)
-        info = {"data": str(Path(args.data).resolve()), "places": opt["places"], "dataset": traverse.name}
+        info = {
+            "data": str(Path(args.data).resolve()),
+            "places": opt["places"],
+            "dataset": traverse.name,
+            "extra_references": [str(p.resolve()) for p in extra_paths],
+        }
         summary = train_run(
             args.out,
             reference,
@@ -161,6 +214,7 @@ class ModularSNNPlugin(ModelPlugin):
             max_modules=opt["max_modules"],
             info=info,
             progress=not opt["no_progress"],
+            extra_references=extras,
         )
         return {"model": self.name, "backend": backend, **summary}
 

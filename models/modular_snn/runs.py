@@ -16,10 +16,22 @@ members has its own modules; module ``k`` of member ``m`` is seeded with
 order), member ``m``'s place permutation and hyperactive threshold theta with
 ``derive_seed(seed, m, 1)``.
 
+Training traverses. Every module trains on its places in the reference traverse and,
+when given, in extra reference traverses of the same places (``extra_references``;
+see :mod:`.training`). As VPRSNN's ``get_new_assignments`` does with the training
+responses of every training image and its place label, a neuron's response to a place
+is taken over all training traverses: the module record's ``own_responses`` are the
+learning-off spike counts summed over the traverses (the same argmax as VPRSNN's mean
+rate per label, since every place has one image per traverse). Hyperactive activity
+(total spikes, or images fired for) is counted over every training image and divided
+by the number of traverses before it is compared with theta, so theta keeps the scale
+of one reference set for which its range U(40, 100) / U(600, 800) was drawn. With no
+extra traverse all of this reduces to the single-traverse computation.
+
 Resume. A module counts as finished when its ``.npz`` record exists (it is written
 after the network file, both atomically) and carries the fingerprint of the same job
-(settings, data, places, seed); a record with another fingerprint is refused rather
-than mixed in. Because every module depends only on its own seed, a resumed run gives
+(settings, data including every extra traverse's images, places, seed); a record with
+another fingerprint is refused rather than mixed in. Because every module depends only on its own seed, a resumed run gives
 bit-identical files and results to an uninterrupted one on the same backend and machine.
 """
 
@@ -163,6 +175,7 @@ def train_run(
     max_modules: int | None = None,
     info: dict[str, Any] | None = None,
     progress: bool = True,
+    extra_references: Sequence[np.ndarray] = (),
 ) -> dict[str, Any]:
     """Train every module of every member into ``run_dir``; write ``run.json`` when all are done.
 
@@ -185,6 +198,11 @@ def train_run(
         Train at most this many of the unfinished modules, then stop (resume later).
     info
         Extra entries for ``run.json`` (dataset path, place count, ...).
+    extra_references
+        Further preprocessed reference traverses of the same ``R`` places in the same
+        order, each ``(R, 28, 28)``, trained on together with ``reference`` (see the
+        module docstring); their digests enter every module's fingerprint and
+        ``run.json`` (``extra_reference_digests``).
 
     Returns
     -------
@@ -196,6 +214,13 @@ def train_run(
     run_dir = Path(run_dir)
     images = _as_rows(reference)
     n_ref = images.shape[0]
+    extras = [_as_rows(extra) for extra in extra_references]
+    for k, extra in enumerate(extras, start=1):
+        if extra.shape != images.shape:
+            raise nv.ValidationError(
+                f"extra reference traverse {k} has {extra.shape[0]} images of {extra.shape[1]} pixels, but the reference has "
+                f"{n_ref} of {images.shape[1]}; it must hold the same places in the same order."
+            )
     if hyperactive not in ("spikes", "images"):
         raise nv.ValidationError(f"hyperactive measure is {hyperactive!r}, expected 'spikes' or 'images'.")
     if score not in ("sum", "mean"):
@@ -210,7 +235,10 @@ def train_run(
     plan = make_plan(n_ref, settings.module_size, members, seed, place_order)
     cfg = json.dumps(settings.as_dict(), sort_keys=True)
     data_digest = _digest(images)
-    prints = [_digest(cfg, data_digest, j.places, j.seed, j.name) for j in plan]
+    extra_digests = [_digest(extra) for extra in extras]
+    # without extra traverses the fingerprint is the one of single-traverse runs (they stay resumable)
+    extra_part = (extra_digests,) if extras else ()
+    prints = [_digest(cfg, data_digest, j.places, j.seed, j.name, *extra_part) for j in plan]
     todo = [i for i, j in enumerate(plan) if not _finished(run_dir, j, prints[i])]
     skipped = len(plan) - len(todo)
     if max_modules is not None:
@@ -224,11 +252,13 @@ def train_run(
         atomic_write_bytes(_modules_dir(run_dir) / f"{job.name}.npz", result["record"])
         timings.append(result["timing"])
 
-    jobs = [(cfg, f"modular_snn_{plan[i].name}", plan[i].places, plan[i].seed, prints[i]) for i in todo]
+    n_traverses = 1 + len(extras)
+    shared = np.concatenate([images, *extras], axis=0) if extras else images
+    jobs = [(cfg, f"modular_snn_{plan[i].name}", plan[i].places, plan[i].seed, prints[i], n_traverses) for i in todo]
     start = time.perf_counter()
     bar = _bar(len(plan), skipped, "training modules", progress)
     try:
-        run_jobs(train_job, images, jobs, write, workers=workers, scheduler=scheduler, progress=bar)
+        run_jobs(train_job, shared, jobs, write, workers=workers, scheduler=scheduler, progress=bar)
     finally:
         if bar is not None:
             bar.close()
@@ -239,6 +269,7 @@ def train_run(
         "plan": describe_plan(n_ref, settings.module_size),
         "members": int(members),
         "modules_per_member": len(plan) // int(members),
+        "training_traverses": n_traverses,
         "trained_now": len(todo),
         "skipped_finished": skipped,
         "wall_seconds": round(wall, 3),
@@ -262,6 +293,8 @@ def train_run(
         "seed": int(seed),
         "n_reference": n_ref,
         "reference_digest": data_digest,
+        "training_traverses": n_traverses,
+        "extra_reference_digests": extra_digests,
         "members": int(members),
         "module_size": settings.module_size,
         "place_order": place_order,
@@ -374,6 +407,7 @@ def member_similarities(
         rec = read_npz(_modules_dir(run_dir) / f"{mod['name']}.npz")
         assignments = assign_neurons(rec["own_responses"], rec["places"])
         activity = rec["total_spikes"] if measure == "spikes" else rec["images_fired"]
+        activity = activity / int(rec.get("n_traverses", 1))  # per training traverse (see the module docstring)
         ignore = hyperactive_neurons(activity, thetas[m])
         by_member[m].append(module_similarity(counts[mod["name"]], assignments, n_ref, ignore=ignore, score=run_info["score"]))
     return [fuse_modules(by_member[m]) for m in by_member]

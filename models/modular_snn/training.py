@@ -8,6 +8,16 @@ on its own places for ``epochs`` passes, in a new shuffled order every pass, and
 with learning off, is shown every reference image once: its responses there give the
 neuron assignment (its own places) and the hyperactive-neuron counts (all places).
 
+Several training traverses (the paper trains on two reference traverses, e.g. Nordland
+spring and fall; VPRSNN's ``get_train_test_datapath``). Extra reference traverses hold
+the same places in the same order (image ``i`` of every traverse is place ``i``). Every
+epoch shows each ``(traverse, place)`` pair once, in one shuffled order over all pairs
+(``T x P`` presentations for ``T`` traverses and ``P`` module places, VPRSNN's
+``num_labels * len(train_data_path) * epochs``); afterwards, with learning off, every
+image of every traverse is shown once, traverse by traverse. With one traverse the
+order generator draws exactly what it drew before (a permutation of ``P`` items per
+epoch), so single-traverse results are unchanged.
+
 Reset instead of rest (the default, ``simulate_rest=False``). VPRSNN follows each image
 with 150 ms without input. After 150 ms the conductances (tau 1 ms and 0.5 ms) are
 gone, the STDP traces (20 ms, 40 ms) are below e^-3.75 = 2%, the inhibitory membrane
@@ -25,7 +35,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -187,6 +197,7 @@ def train_module(
     *,
     name: str = "module",
     tick: Callable[[], None] | None = None,
+    extra_references: Sequence[np.ndarray] = (),
 ) -> tuple[nv.Network, np.ndarray, dict[str, float]]:
     """Train one module on ``reference[places]`` and record its responses to all of ``reference``.
 
@@ -205,17 +216,32 @@ def train_module(
         Name of the learned network.
     tick
         Called once per presented image (progress reporting).
+    extra_references
+        Further training traverses of the same ``N`` places, each shaped like
+        ``reference`` (see the module docstring); empty: train on ``reference`` alone.
 
     Returns
     -------
     network, responses, timing
-        The learned network (weights and thresholds), the ``(N, n_neurons)`` spike
-        counts with learning off, and the wall-clock and CPU seconds of training and
+        The learned network (weights and thresholds), the ``(T * N, n_neurons)`` spike
+        counts with learning off to every image of the ``T = 1 + len(extra_references)``
+        training traverses (traverse-major: rows ``t * N .. t * N + N - 1`` are traverse
+        ``t``, ``reference`` first), and the wall-clock and CPU seconds of training and
         recording (``train_seconds``, ``train_cpu_seconds``, ``record_seconds``,
         ``record_cpu_seconds``).
     """
     images = np.asarray(reference)
     images = images.reshape(images.shape[0], -1)
+    traverses = [images]
+    for k, extra in enumerate(extra_references, start=1):
+        extra = np.asarray(extra)
+        extra = extra.reshape(extra.shape[0], -1) if extra.ndim >= 1 else extra
+        if extra.shape != images.shape:
+            raise nv.ValidationError(
+                f"module {name!r}: training traverse {k} has images of shape {extra.shape}, expected {images.shape} "
+                "(the same places as the reference, in the same order)."
+            )
+        traverses.append(extra)
     places = np.asarray(places, dtype=np.int64)
     if places.size == 0 or places.min() < 0 or places.max() >= images.shape[0]:
         raise nv.ValidationError(f"module {name!r}: place indices must lie in 0..{images.shape[0] - 1}.")
@@ -228,15 +254,17 @@ def train_module(
     presenter = Presenter(sim, settings)
     order_rng = np.random.default_rng([int(seed), 1])
     _, post = sim.connections(INPUT_PROJECTION)
+    n_places = places.size
     for _ in range(settings.epochs):
-        for place in order_rng.permutation(places):
+        # one permutation of all (traverse, place) pairs; pair j is traverse j // P, place places[j % P]
+        for pair in order_rng.permutation(len(traverses) * n_places):
             normalise_input_weights(sim, settings.weight_sum, settings.params.w_max, post)
-            presenter.present(images[place])
+            presenter.present(traverses[pair // n_places][places[pair % n_places]])
             if tick is not None:
                 tick()
     trained, cpu_trained = time.perf_counter(), time.process_time()
     sim.plasticity(False)
-    responses = record_responses(presenter, images, tick=tick)
+    responses = np.concatenate([record_responses(presenter, t, tick=tick) for t in traverses], axis=0)
     timing = {
         "train_seconds": trained - start,
         "train_cpu_seconds": cpu_trained - cpu_start,

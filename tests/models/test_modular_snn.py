@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import importlib.metadata
+import io
 import json
 from pathlib import Path
 
@@ -268,6 +269,191 @@ def test_train_and_eval_write_run_json_results_and_plots(tmp_path: Path, capsys:
         path = Path(result["files"][key])
         assert path.is_file() and path.stat().st_size > 0
     assert json.loads(Path(result["files"]["json"]).read_text())["metrics"] == result["metrics"]
+
+
+# ------------------------------------------------------- several training traverses
+# Computed with the single-traverse code before training on extra traverses existed:
+# train_module(tiny_images(5), [0, 1, 2], TINY, seed=3) and the module records of
+# train_run(tiny_images(4, seed=1), TINY, members=1, seed=5).
+_EXPECTED_RESPONSES = [
+    [1, 2, 1, 1, 2, 3, 1, 1, 2, 1],
+    [2, 1, 1, 0, 2, 2, 1, 0, 1, 2],
+    [2, 2, 2, 2, 3, 2, 2, 1, 2, 3],
+    [2, 1, 2, 1, 2, 2, 1, 1, 1, 1],
+    [2, 2, 2, 2, 2, 0, 3, 3, 3, 2],
+]
+_EXPECTED_WEIGHT_SUM, _EXPECTED_THETA_SUM = 401.2168121250197, 4.849856762771639
+_EXPECTED_RECORDS = {
+    "m00_k000": (
+        [[1, 3, 0, 3, 0, 1, 2, 0, 2, 2], [1, 2, 1, 2, 1, 3, 2, 2, 1, 2], [3, 3, 2, 0, 1, 3, 2, 3, 1, 2]],
+        [5, 10, 5, 6, 4, 9, 8, 8, 6, 7],
+        [3, 4, 3, 3, 3, 4, 4, 3, 4, 4],
+        "9797767ea834e2d28e65b138237375e81e49058f6ebc147d0be717f0216e0a1b",
+    ),
+    "m00_k001": (
+        [[3, 2, 2, 2, 0, 0, 1, 1, 0, 3]],
+        [8, 8, 5, 6, 6, 5, 5, 6, 3, 6],
+        [4, 4, 3, 4, 3, 3, 3, 4, 3, 4],
+        "ae68ba00b6aeb89753c01bf86af53af7bff2be82535e93417c7fe0249206b3c8",
+    ),
+}
+
+
+def test_single_traverse_training_is_unchanged(tmp_path: Path) -> None:
+    net, responses, _ = train_module(tiny_images(5), np.array([0, 1, 2]), TINY, seed=3)
+    np.testing.assert_array_equal(responses, _EXPECTED_RESPONSES)
+    assert float(net.projections["pixels->exc"].synapse.weight.sum()) == pytest.approx(_EXPECTED_WEIGHT_SUM, rel=1e-12)
+    assert float(net.populations["exc"].cell_type.theta_init.sum()) == pytest.approx(_EXPECTED_THETA_SUM, rel=1e-12)
+    summary = train_run(tmp_path / "run", tiny_images(4, seed=1), TINY, members=1, seed=5, workers=1, progress=False)
+    assert summary["training_traverses"] == 1
+    info = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert info["training_traverses"] == 1 and info["extra_reference_digests"] == []
+    for name, (own, total, fired, fingerprint) in _EXPECTED_RECORDS.items():
+        rec = read_npz(tmp_path / "run" / "modules" / f"{name}.npz")
+        np.testing.assert_array_equal(rec["own_responses"], own)
+        np.testing.assert_array_equal(rec["total_spikes"], total)
+        np.testing.assert_array_equal(rec["images_fired"], fired)
+        assert str(rec["fingerprint"]) == fingerprint  # runs started before still resume
+        assert int(rec["n_traverses"]) == 1 and int(rec["n_presentations"]) == TINY.epochs * len(own) + 4
+
+
+def test_single_traverse_training_repeats_the_former_loop() -> None:
+    """The former single-traverse loop, written out: a permutation of the places per epoch."""
+    from neurovpr.models.modular_snn.network import INPUT_PROJECTION
+    from neurovpr.models.modular_snn.training import Presenter, normalise_input_weights, record_responses
+
+    images, places, seed = tiny_images(5, seed=4).reshape(5, -1), np.array([0, 2, 3]), 6
+    sim = nv.compile(TINY.network("module", seed), backend=TINY.backend, dt=TINY.dt, seed=seed)
+    presenter, order_rng = Presenter(sim, TINY), np.random.default_rng([seed, 1])
+    _, post = sim.connections(INPUT_PROJECTION)
+    for _ in range(TINY.epochs):
+        for place in order_rng.permutation(places):
+            normalise_input_weights(sim, TINY.weight_sum, TINY.params.w_max, post)
+            presenter.present(images[place])
+    sim.plasticity(False)
+    former = record_responses(presenter, images)
+    net, responses, _ = train_module(images, places, TINY, seed=seed)
+    np.testing.assert_array_equal(responses, former)
+    learned = sim.to_network("module").projections["pixels->exc"].synapse.weight
+    np.testing.assert_array_equal(net.projections["pixels->exc"].synapse.weight, learned)
+
+
+def test_extra_traverse_is_presented_every_epoch_and_recorded() -> None:
+    ref, extra, places = tiny_images(5, seed=1), tiny_images(5, seed=7), np.array([1, 3, 4])
+    ticks = {"one": 0, "two": 0}
+
+    def counter(key: str):
+        def tick() -> None:
+            ticks[key] += 1
+
+        return tick
+
+    net_1, resp_1, _ = train_module(ref, places, TINY, seed=2, tick=counter("one"))
+    net_2, resp_2, _ = train_module(ref, places, TINY, seed=2, tick=counter("two"), extra_references=[extra])
+    # places x traverses x epochs training presentations, then every image of every traverse once
+    assert ticks == {"one": 3 * 1 * TINY.epochs + 5, "two": 3 * 2 * TINY.epochs + 2 * 5}
+    assert resp_1.shape == (5, 10) and resp_2.shape == (10, 10) and resp_2[5:].sum() > 0
+    w_1, w_2 = (n.projections["pixels->exc"].synapse.weight for n in (net_1, net_2))
+    assert not np.array_equal(w_1, w_2)
+    with pytest.raises(nv.ValidationError, match="training traverse 1"):
+        train_module(ref, places, TINY, seed=2, extra_references=[tiny_images(4)])
+    # the module record: responses to a place summed over the traverses, activity over all 10 images
+    from neurovpr.models.modular_snn.parallel import train_job
+
+    cfg = json.dumps(TINY.as_dict(), sort_keys=True)
+    shared = np.concatenate([ref, extra]).reshape(10, -1)
+    result = train_job(shared, cfg, "m", places, 2, "fp", 2)
+    with np.load(io.BytesIO(result["record"]), allow_pickle=False) as rec:
+        np.testing.assert_array_equal(rec["own_responses"], resp_2[places] + resp_2[5 + places])
+        np.testing.assert_array_equal(rec["total_spikes"], resp_2.sum(axis=0))
+        np.testing.assert_array_equal(rec["images_fired"], np.count_nonzero(resp_2, axis=0))
+        assert int(rec["n_traverses"]) == 2
+
+
+def test_run_with_an_extra_traverse_records_it_and_resume_checks_it(tmp_path: Path) -> None:
+    ref, extra, other = tiny_images(4, seed=1), tiny_images(4, seed=8), tiny_images(4, seed=9)
+    kw = {"members": 1, "seed": 5, "workers": 1, "progress": False}
+    part = train_run(tmp_path / "run", ref, TINY, max_modules=1, extra_references=[extra], **kw)
+    assert not part["complete"] and part["training_traverses"] == 2
+    for changed in ([other], []):  # another extra traverse, or none: refused, never mixed in
+        with pytest.raises(nv.ValidationError, match="other settings, data"):
+            train_run(tmp_path / "run", ref, TINY, resume=True, extra_references=changed, **kw)
+    done = train_run(tmp_path / "run", ref, TINY, resume=True, extra_references=[extra], **kw)
+    assert done["complete"] and done["skipped_finished"] == 1
+    info = json.loads((tmp_path / "run" / "run.json").read_text())
+    assert info["training_traverses"] == 2 and len(info["extra_reference_digests"]) == 1
+    assert info["extra_reference_digests"][0] != info["reference_digest"]
+    for mod in info["modules"]:
+        rec = read_npz(tmp_path / "run" / "modules" / f"{mod['name']}.npz")
+        n_places = len(mod["places"])
+        assert int(rec["n_traverses"]) == 2 and int(rec["n_presentations"]) == 2 * (TINY.epochs * n_places + 4)
+        assert rec["own_responses"].shape == (n_places, 10) and int(rec["images_fired"].max()) <= 8
+    with pytest.raises(nv.ValidationError, match="extra reference traverse 1 has 3 images"):
+        train_run(tmp_path / "bad", ref, TINY, extra_references=[tiny_images(3)], **kw)
+    assert not (tmp_path / "bad").exists()
+    # hyperactive activity is per training traverse: theta at 3/4 of the largest total ignores no neuron
+    records = [read_npz(tmp_path / "run" / "modules" / f"{m['name']}.npz") for m in info["modules"]]
+    info["hyperactive"]["thetas"] = [0.75 * max(int(r["total_spikes"].max()) for r in records)]
+    counts = query_responses(tmp_path / "run", info, tiny_images(4, seed=2), progress=False)
+    (sim,) = member_similarities(tmp_path / "run", info, counts)
+    expected = fuse_modules(
+        [
+            module_similarity(counts[m["name"]], assign_neurons(r["own_responses"], r["places"]), 4)
+            for m, r in zip(info["modules"], records, strict=True)
+        ]
+    )
+    np.testing.assert_array_equal(sim, expected)
+
+
+def _conditions_dataset(folder: Path, n: int, season: float, name: str) -> Path:
+    from neurovpr.data.generic import write_generic
+    from neurovpr.data.synthetic import AppearanceChange, synthetic_traverse
+
+    change = AppearanceChange(season=season, illumination=0.8, contrast=0.9)
+    return write_generic(synthetic_traverse(n, seed=2, reference=change), folder / name)
+
+
+def _train_cli(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, dict, str]:
+    """``neurovpr train --model modular ARGS``: exit code, JSON summary and error text."""
+    if _entry_point_installed():
+        from neurovpr.cli.main import main
+
+        code = main(["train", "--model", "modular", "--json", *args])
+        out = capsys.readouterr()
+        return code, json.loads(out.out) if code == 0 else {}, out.err
+    p = argparse.ArgumentParser()  # the entry point is not installed yet: drive the plugin the way the CLI does
+    p.add_argument("--data", type=Path)
+    p.add_argument("--out", type=Path)
+    p.add_argument("--seed", type=int, default=0)
+    MODEL.add_train_arguments(p)
+    targs = p.parse_args(args)
+    targs.__dict__.update(backend="reference", scheduler=None, resume=False)
+    try:
+        return 0, MODEL.train(targs), ""
+    except nv.ValidationError as exc:
+        return 2, {}, str(exc)
+
+
+def test_cli_trains_on_an_extra_reference_traverse(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    data = _synthetic_dataset(tmp_path, 5)
+    extra = _conditions_dataset(tmp_path, 6, 0.5, "autumn")
+    opts = ["--epochs", "1", "--module-size", "3", "--neurons", "10", "--workers", "1", "--no-progress", "--places", "5"]
+    run_dir = tmp_path / "run"
+    code, summary, _ = _train_cli(["--data", str(data), "--out", str(run_dir), "--extra-reference", str(extra), *opts], capsys)
+    assert code == 0 and summary["complete"] and summary["training_traverses"] == 2
+    info = json.loads((run_dir / "run.json").read_text())
+    assert info["extra_references"] == [str(extra.resolve())] and info["training_traverses"] == 2
+    rec = read_npz(run_dir / "modules" / "m00_k000.npz")
+    assert int(rec["n_presentations"]) == 2 * (1 * 3 + 5)
+    code, _, _ = _train_cli(["--data", str(data), "--out", str(tmp_path / "alone"), *opts], capsys)
+    w = [nv.load(d / "modules" / "m00_k000.h5").projections["pixels->exc"].synapse.weight for d in (run_dir, tmp_path / "alone")]
+    assert code == 0 and not np.array_equal(w[0], w[1])  # the extra traverse's images were learned from
+    # without --places the counts (5 and 6) differ: one error naming both, before anything is trained
+    bad = tmp_path / "bad"
+    code, _, error = _train_cli(["--data", str(data), "--out", str(bad), "--extra-reference", str(extra), *opts[:-2]], capsys)
+    assert code == 2 and error.strip().count("\n") == 0
+    assert all(s in error for s in (str(extra), str(data), "has 6 reference places", "has 5"))
+    assert not bad.exists()
 
 
 @pytest.mark.slow
