@@ -17,7 +17,11 @@ compile to vector instructions), leaving out terms that are exactly ``+0.0`` for
 group (subtracting them is the identity: results are the same bit for bit). A group's
 spikes are then handled in increasing neuron index, as a neuron-by-neuron loop would
 (a spike only changes its own neuron and steps after ``j + 1``). Static arrivals are
-summed per (ring slot, neuron); each slot lists the neurons it touches. Pair STDP is
+summed per (receptor, ring slot, neuron): a spike adds each of its static segments (one
+delay and receptor, see :func:`.translation.static_delivery`) into one buffer row and
+marks the blocks of neurons the segment reaches, so that delivery visits marked blocks
+only. Within a buffer entry the contributions keep the order of a synapse-by-synapse
+loop, so the sums are the same bit for bit. Pair STDP is
 all-to-all with traces that jump by 1 (set to 1 for Diehl & Cook); all synapses of a
 segment (one presynaptic neuron, projection and delay) see the same arrivals, so
 their presynaptic trace is held once per segment (``seg_xpre``, decayed lazily from
@@ -375,13 +379,14 @@ def decay_post_traces(rules, tr_lo, tr_hi, post_decay1, post_decay2, xpost1, xpo
 # -- the step loop ------------------------------------------------------------
 @njit(cache=True, inline="always", _nrt=False)
 def emit(
-    i, stamp, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_post, s_w, s_delay, s_inh,
-    buf_e, buf_i, touched, touched_n, mark, row_seg_ptr, seg_delay, ev, ev_n, stats,
+    i, stamp, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg_delay, d_seg_rec, d_post, d_w,
+    d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay, ev, ev_n, stats,
 ):  # fmt: skip
     """Record the spike of neuron ``i`` at step ``stamp`` and schedule its arrivals.
 
-    Static weights are summed into the ring slot of their arrival (``buf_e``, ``buf_i``);
-    the first event of a slot for a neuron puts the neuron on the slot's ``touched`` list.
+    Each static segment (one delay and receptor) adds its weights into one row of the
+    ring buffer ``buf`` (row ``receptor * ring + slot``, flattened) and marks the
+    neuron blocks it touches in ``dirty`` (``row_any`` says that a row has marks).
     """
     counts[i] += 1
     stats[ST_SPIKES] += 1
@@ -390,29 +395,60 @@ def emit(
         rec_t[n] = stamp
         rec_i[n] = i
         rec_n[0] = n + 1
-    ring = buf_e.shape[0]
-    for k in range(s_ptr[i], s_ptr[i + 1]):
-        slot = (stamp + s_delay[k]) % ring
-        post = s_post[k]
-        if not mark[slot, post]:
-            mark[slot, post] = True
-            touched[slot, touched_n[slot]] = post
-            touched_n[slot] += 1
-        if s_inh[k]:
-            buf_i[slot, post] += s_w[k]
-        else:
-            buf_e[slot, post] += s_w[k]
-    stats[ST_SYN_EVENTS] += s_ptr[i + 1] - s_ptr[i]
+    ring = ev_n.size
+    width = buf.size // row_any.size
+    n_blocks = dirty.size // row_any.size
+    for g in range(d_seg_ptr[i], d_seg_ptr[i + 1]):
+        row = d_seg_rec[g] * ring + (stamp + d_seg_delay[g]) % ring
+        row_any[row] = True
+        base = np.uint64(row * width)  # unsigned indices: no negative-index wrap
+        for k in range(np.uint64(d_seg_start[g]), np.uint64(d_seg_start[g + 1])):
+            buf[base + d_post[k]] += d_w[k]
+        marks = np.uint64(row * n_blocks)
+        for b in range(np.uint64(d_blk_ptr[g]), np.uint64(d_blk_ptr[g + 1])):
+            dirty[marks + d_blk[b]] = True
+    stats[ST_SYN_EVENTS] += d_seg_start[d_seg_ptr[i + 1]] - d_seg_start[d_seg_ptr[i]]
     for g in range(row_seg_ptr[i], row_seg_ptr[i + 1]):
         slot = (stamp + seg_delay[g]) % ring
         ev[slot, ev_n[slot]] = g
         ev_n[slot] += 1
 
 
+@njit(cache=True, inline="always", _nrt=False)
+def deliver_static(slot, ring, n, buf, dirty, dirty_words, row_any, isyn):  # fmt: skip
+    """Add the static arrivals of ring slot ``slot`` to ``isyn`` and clear them, block by marked block.
+
+    An entry that is exactly 0 leaves its synaptic state as it is (adding +0.0 would
+    turn a -0.0 into +0.0).
+    """
+    width = buf.size // row_any.size
+    n_blocks = dirty.size // row_any.size
+    block = width // n_blocks
+    for r in range(2):
+        row = r * ring + slot
+        if not row_any[row]:
+            continue
+        row_any[row] = False
+        marks = row * n_blocks
+        for word in range(marks >> 3, (marks + n_blocks) >> 3):
+            if dirty_words[word] == 0:
+                continue
+            dirty_words[word] = 0
+            for b in range((word << 3) - marks, (word << 3) - marks + 8):
+                lo = b * block
+                hi = min(lo + block, n)
+                base = np.uint64(row * width)
+                for q in range(np.uint64(lo), np.uint64(max(lo, hi))):
+                    x = buf[base + q]
+                    s = isyn[r, q]
+                    isyn[r, q] = s + x if x != 0.0 else s
+                    buf[base + q] = 0.0
+
+
 @njit(cache=True, _nrt=False)
 def run_steps(
     j0, j1, dt, plastic_on, groups, n_updated, params, v, isyn, ie, ii, theta, ica, refr, flag, flag_words, counts,
-    buf_e, buf_i, touched, touched_n, mark, s_ptr, s_post, s_w, s_delay, s_inh,
+    buf, dirty, dirty_words, row_any, d_seg_ptr, d_seg_start, d_seg_delay, d_seg_rec, d_post, d_w, d_blk_ptr, d_blk,
     row_seg_ptr, seg_start, seg_delay, seg_proj, p_post, p_w, seg_xpre, seg_last,
     post_ptr, post_syn, post_seg, proj_inh, tr_lo, tr_hi, tr_shift, post_tr_ptr, post_tr_idx, trace_proj, rules,
     pre_table, post_decay1, post_decay2, xpost1, xpost2, x_pre, ev, ev_n,
@@ -427,7 +463,8 @@ def run_steps(
     (all 0 between steps), ``flag_words`` the same memory as 64-bit words; ``x_pre``
     is scratch space for the largest number of plastic synapses onto one neuron.
     """
-    ring = buf_e.shape[0]
+    ring = ev_n.size
+    n = v.size
     cap = rec_t.size
     for j in range(j0, j1):
         if rec_n[0] + headroom > cap:
@@ -438,8 +475,9 @@ def run_steps(
             if pois_next[k] == j:
                 i = pois_idx[k]
                 if pois_start[k] <= j < pois_end[k]:
-                    emit(i, j, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_post, s_w, s_delay, s_inh,
-                         buf_e, buf_i, touched, touched_n, mark, row_seg_ptr, seg_delay, ev, ev_n, stats)  # fmt: skip
+                    emit(i, j, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg_delay, d_seg_rec,
+                         d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay, ev, ev_n,
+                         stats)  # fmt: skip
                 g = geometric_gap(rng, pois_logq[k])
                 pois_next[k] = NEVER if g == NEVER else j + 1 + g
             elif pois_next[k] < j:  # window change or redraw in the past: draw forward
@@ -447,9 +485,9 @@ def run_steps(
                 pois_next[k] = NEVER if g == NEVER else j + g
         while arr_ptr[0] < arr_step.size and arr_step[arr_ptr[0]] <= j:
             if arr_step[arr_ptr[0]] == j:
-                emit(arr_neuron[arr_ptr[0]], j, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_post, s_w,
-                     s_delay, s_inh, buf_e, buf_i, touched, touched_n, mark, row_seg_ptr, seg_delay, ev, ev_n,
-                     stats)  # fmt: skip
+                emit(arr_neuron[arr_ptr[0]], j, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start,
+                     d_seg_delay, d_seg_rec, d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr,
+                     seg_delay, ev, ev_n, stats)  # fmt: skip
             arr_ptr[0] += 1
         # 2. arrivals at plastic synapses (post traces hold their value at time j)
         for e in range(ev_n[slot]):
@@ -461,16 +499,7 @@ def run_steps(
         # postsynaptic traces advance to the end of the step
         decay_post_traces(rules, tr_lo, tr_hi, post_decay1, post_decay2, xpost1, xpost2)
         # static arrivals
-        for q in range(touched_n[slot]):
-            i = touched[slot, q]
-            mark[slot, i] = False
-            if buf_e[slot, i] != 0.0:
-                ie[i] += buf_e[slot, i]
-                buf_e[slot, i] = 0.0
-            if buf_i[slot, i] != 0.0:
-                ii[i] += buf_i[slot, i]
-                buf_i[slot, i] = 0.0
-        touched_n[slot] = 0
+        deliver_static(slot, ring, n, buf, dirty, dirty_words, row_any, isyn)
         # 3. neurons, group by group; then each group's spikes in increasing index
         stats[ST_NEURON_UPDATES] += n_updated
         for grp in range(groups.shape[0]):
@@ -496,8 +525,9 @@ def run_steps(
                                     rules, pre_table, tr_shift, xpost2, x_pre,
                                 )  # fmt: skip
                             post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2)
-                            emit(i, j + 1, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_post, s_w, s_delay, s_inh,
-                                 buf_e, buf_i, touched, touched_n, mark, row_seg_ptr, seg_delay, ev, ev_n, stats)  # fmt: skip
+                            emit(i, j + 1, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg_delay,
+                                 d_seg_rec, d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay,
+                                 ev, ev_n, stats)  # fmt: skip
                 word += 1
         # 4. state recording
         if var_idx.size:

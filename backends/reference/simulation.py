@@ -14,7 +14,7 @@ from neurovpr.network import Network
 from neurovpr.simulation import Simulation
 
 from . import kernels
-from .translation import C_I_CA_INIT, C_V_INIT, KIND_POISSON, VAR_CODES, build_layout
+from .translation import BLOCK_SHIFT, C_I_CA_INIT, C_V_INIT, KIND_POISSON, VAR_CODES, build_layout
 
 _PAST = -(2**40)
 
@@ -92,38 +92,61 @@ class ReferenceSimulation(Simulation):
 
     # -- state -----------------------------------------------------------------
     def _reset_state(self) -> None:
+        """Initial dynamic state; arrays of the right size are cleared in place rather than allocated again."""
         lay = self._lay
         n = lay.n
         self._step = 0
-        self._v = lay.params[:, C_V_INIT].copy()
-        self._isyn = np.zeros((2, n))
-        self._ie, self._ii = self._isyn[0], self._isyn[1]
-        self._ica = lay.params[:, C_I_CA_INIT].copy()
-        self._refr = np.zeros(n, dtype=np.int64)
-        self._counts = np.zeros(n, dtype=np.int64)
-        self._buf_e = np.zeros((lay.ring, n))
-        self._buf_i = np.zeros((lay.ring, n))
-        self._touched = np.zeros((lay.ring, n), dtype=np.int64)
-        self._touched_n = np.zeros(lay.ring, dtype=np.int64)
-        self._mark = np.zeros((lay.ring, n), dtype=np.bool_)
-        self._flag = np.zeros(-(-n // 8) * 8, dtype=np.bool_)
-        self._flag_words = self._flag.view(np.uint64)
         n_seg = lay.seg_delay.size
-        self._seg_xpre = np.zeros(n_seg)
-        self._seg_last = np.full(n_seg, _PAST, dtype=np.int64)
-        self._xpost1 = np.zeros(lay.n_traces)
-        self._xpost2 = np.zeros(lay.n_traces)
+        if not hasattr(self, "_buf"):
+            self._v = lay.params[:, C_V_INIT].copy()
+            self._isyn = np.zeros((2, n))
+            self._ie, self._ii = self._isyn[0], self._isyn[1]
+            self._ica = lay.params[:, C_I_CA_INIT].copy()
+            self._refr = np.zeros(n, dtype=np.int64)
+            self._counts = np.zeros(n, dtype=np.int64)
+            # static ring buffer: rows (receptor, slot) of whole 64-bit words of block marks
+            n_blocks = -(-lay.n_blocks // 8) * 8
+            self._buf = np.zeros(2 * lay.ring * (n_blocks << BLOCK_SHIFT))
+            self._dirty = np.zeros(2 * lay.ring * n_blocks, dtype=np.bool_)
+            self._dirty_words = self._dirty.view(np.uint64)
+            self._row_any = np.zeros(2 * lay.ring, dtype=np.bool_)
+            self._flag = np.zeros(-(-n // 8) * 8, dtype=np.bool_)
+            self._flag_words = self._flag.view(np.uint64)
+            self._seg_xpre = np.zeros(n_seg)
+            self._seg_last = np.full(n_seg, _PAST, dtype=np.int64)
+            self._xpost1 = np.zeros(lay.n_traces)
+            self._xpost2 = np.zeros(lay.n_traces)
+            self._ev_n = np.zeros(lay.ring, dtype=np.int64)
+            self._rec_n = np.zeros(1, dtype=np.int64)
+        else:
+            self._v[:] = lay.params[:, C_V_INIT]
+            self._isyn.fill(0.0)
+            self._ica[:] = lay.params[:, C_I_CA_INIT]
+            self._refr.fill(0)
+            self._counts.fill(0)
+            if self._row_any.any():  # arrivals still pending: only marked rows hold non-zero entries
+                self._buf.fill(0.0)
+                self._dirty.fill(False)
+                self._row_any.fill(False)
+            self._flag.fill(False)
+            self._seg_xpre.fill(0.0)
+            self._seg_last.fill(_PAST)
+            self._xpost1.fill(0.0)
+            self._xpost2.fill(0.0)
+            self._ev_n.fill(0)
+            self._rec_n[0] = 0
         self._spike_chunks: list[tuple[np.ndarray, np.ndarray]] = []
         for key in self._recorders:
             self._recorders[key] = []
         self._build_array_events()
-        self._ev = np.zeros((lay.ring, max(1, n_seg * self._multiplicity)), dtype=np.int64)
-        self._ev_n = np.zeros(lay.ring, dtype=np.int64)
+        need = max(1, n_seg * self._multiplicity)
+        if getattr(self, "_ev", None) is None or self._ev.shape[1] != need:
+            self._ev = np.zeros((lay.ring, need), dtype=np.int64)
         kernels.draw_poisson(0, self._pois_idx, self._pois_logq, self._pois_next, self._rng)
         cap = max(1 << 16, 4 * self._headroom)
-        self._rec_t = np.zeros(cap, dtype=np.int64)
-        self._rec_i = np.zeros(cap, dtype=np.int64)
-        self._rec_n = np.zeros(1, dtype=np.int64)
+        if getattr(self, "_rec_t", None) is None or self._rec_t.size != cap:
+            self._rec_t = np.zeros(cap, dtype=np.int64)
+            self._rec_i = np.zeros(cap, dtype=np.int64)
 
     def _build_array_events(self) -> None:
         steps, neurons = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
@@ -184,8 +207,8 @@ class ReferenceSimulation(Simulation):
             reached = kernels.run_steps(
                 j, j1, self._dt, self._plastic, lay.groups, lay.n_updated, lay.params, self._v, self._isyn,
                 self._ie, self._ii, self._theta, self._ica, self._refr, self._flag, self._flag_words, self._counts,
-                self._buf_e, self._buf_i, self._touched, self._touched_n, self._mark,
-                lay.s_ptr, lay.s_post, lay.s_w, lay.s_delay, lay.s_inh,
+                self._buf, self._dirty, self._dirty_words, self._row_any, lay.d_seg_ptr, lay.d_seg_start,
+                lay.d_seg_delay, lay.d_seg_rec, lay.d_post, lay.d_w, lay.d_blk_ptr, lay.d_blk,
                 lay.row_seg_ptr, lay.seg_start, lay.seg_delay, lay.seg_proj, lay.p_post, lay.p_w,
                 self._seg_xpre, self._seg_last, lay.post_ptr, lay.post_syn, lay.post_seg, lay.proj_inh,
                 lay.tr_lo, lay.tr_hi, lay.tr_shift, lay.post_tr_ptr, lay.post_tr_idx, lay.trace_proj, lay.rules,
@@ -270,6 +293,9 @@ class ReferenceSimulation(Simulation):
     def _set_weights(self, projection: str, values: np.ndarray) -> None:
         store, pos = self._weight_store(projection)
         store[pos] = values
+        lay = self._lay
+        if store is lay.s_w and lay.d_w is not lay.s_w:
+            lay.d_w[lay.d_of_s[pos]] = values
 
     def _learned_state(self, population: str) -> dict[str, np.ndarray]:
         pop = self._network.populations[population]

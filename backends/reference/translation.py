@@ -85,6 +85,9 @@ PRE_TABLE = 4096
 PRE_ZERO = 760.0
 MAX_PRE_TABLE = 1 << 17
 
+#: Static arrivals are tracked per block of ``1 << BLOCK_SHIFT`` consecutive neurons.
+BLOCK_SHIFT = 6
+
 # Recordable variable codes.
 VAR_CODES = {"v": 0, "isyn_exc": 1, "gsyn_exc": 1, "isyn_inh": 2, "gsyn_inh": 2, "theta": 3, "i_ca2": 4}
 
@@ -184,6 +187,19 @@ class Layout:
     s_w: np.ndarray
     s_delay: np.ndarray
     s_inh: np.ndarray
+    # static synapses in delivery order (pre, delay, receptor, then CSR order): per pre neuron, segments
+    # of one delay and receptor (0 excitatory, 1 inhibitory); the neuron blocks each segment touches;
+    # d_of_s: position in delivery order of each CSR position (d_w is s_w when the orders agree)
+    d_seg_ptr: np.ndarray
+    d_seg_start: np.ndarray
+    d_seg_delay: np.ndarray
+    d_seg_rec: np.ndarray
+    d_post: np.ndarray
+    d_w: np.ndarray
+    d_of_s: np.ndarray
+    d_blk_ptr: np.ndarray
+    d_blk: np.ndarray
+    n_blocks: int
     # plastic synapses, CSR by global pre split into equal-delay segments of one projection
     row_seg_ptr: np.ndarray
     seg_start: np.ndarray
@@ -309,6 +325,11 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
         base += hi - lo
     tr_order = np.argsort(tr_neuron, kind="stable")
     post_tr_ptr = np.concatenate([[0], np.cumsum(np.bincount(tr_neuron, minlength=n))]).astype(np.int64)
+    s_post = cat(st["post"], np.int64)[order]
+    s_w = cat(st["w"], np.float64)[order]
+    s_delay = cat(st["d"], np.int64)[order]
+    s_inh = cat(st["inh"], np.bool_)[order]
+    delivery = static_delivery(n, s_ptr, s_post, s_w, s_delay, s_inh)
     all_d = np.concatenate([cat(st["d"], np.int64), p_d, [1]])
     rule_table = np.ascontiguousarray(np.array(rules).reshape(-1, N_RULE_COLS))
     tr_rule = cat(trace_proj, np.int64)
@@ -326,10 +347,11 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
         groups=group_table,
         n_updated=int(np.sum(group_table[:, G_HI] - group_table[:, G_LO])),
         s_ptr=s_ptr,
-        s_post=cat(st["post"], np.int64)[order],
-        s_w=cat(st["w"], np.float64)[order],
-        s_delay=cat(st["d"], np.int64)[order],
-        s_inh=cat(st["inh"], np.bool_)[order],
+        s_post=s_post,
+        s_w=s_w,
+        s_delay=s_delay,
+        s_inh=s_inh,
+        **delivery,
         row_seg_ptr=row_seg_ptr,
         seg_start=seg_start,
         seg_delay=seg_delay,
@@ -357,6 +379,45 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
         proj_pre=proj_pre,
         proj_post=proj_post,
     )
+
+
+def static_delivery(
+    n: int, s_ptr: np.ndarray, s_post: np.ndarray, s_w: np.ndarray, s_delay: np.ndarray, s_inh: np.ndarray
+) -> dict[str, object]:
+    """The static synapses in delivery order, as the ``d_*`` fields of :class:`Layout`.
+
+    Each presynaptic row is sorted stably by (delay, receptor): the synapses adding to one
+    ring-buffer entry (slot, receptor, neuron) keep their order, so the sums are the same
+    bit for bit. A spike then adds each segment's weights into one buffer row without
+    per-synapse delay or receptor look-ups, and marks the segment's blocks of neurons.
+    """
+    m = s_post.size
+    pre = np.repeat(np.arange(n, dtype=np.int64), np.diff(s_ptr))
+    rec = s_inh.astype(np.int64)
+    order = np.lexsort((np.arange(m), rec, s_delay, pre))
+    same = bool(np.array_equal(order, np.arange(m)))
+    d_of_s = np.empty(m, dtype=np.int64)
+    d_of_s[order] = np.arange(m)
+    pre_d, delay_d, rec_d, post_d = pre[order], s_delay[order], rec[order], s_post[order]
+    new_seg = np.ones(m, dtype=bool)
+    new_seg[1:] = (pre_d[1:] != pre_d[:-1]) | (delay_d[1:] != delay_d[:-1]) | (rec_d[1:] != rec_d[:-1])
+    first = np.flatnonzero(new_seg)
+    n_blocks = -(-max(n, 1) >> BLOCK_SHIFT)
+    seg_of = np.repeat(np.arange(first.size, dtype=np.int64), np.diff(np.append(first, m)))
+    blocks = np.unique(seg_of * n_blocks + (post_d >> BLOCK_SHIFT))
+    blk_ptr = np.concatenate([[0], np.cumsum(np.bincount(blocks // n_blocks, minlength=first.size))])
+    return {
+        "d_seg_ptr": np.concatenate([[0], np.cumsum(np.bincount(pre_d[first], minlength=n))]).astype(np.int64),
+        "d_seg_start": np.append(first, m).astype(np.int64),
+        "d_seg_delay": delay_d[first].astype(np.int64),
+        "d_seg_rec": rec_d[first].astype(np.int64),
+        "d_post": post_d.astype(np.uint32) if n < 2**32 else post_d,
+        "d_w": s_w if same else s_w[order],
+        "d_of_s": d_of_s,
+        "d_blk_ptr": blk_ptr.astype(np.int64),
+        "d_blk": (blocks % n_blocks).astype(np.uint32),
+        "n_blocks": n_blocks,
+    }
 
 
 @njit(cache=True)
