@@ -38,7 +38,7 @@ def _activity(name: str, net: nv.Network, folder: Path, dt: float = 1.0) -> dict
     if name.startswith("modular"):
         duration = 350.0
         inputs = {p: rng.uniform(0.0, 63.75, 784) for p in net.populations if p.endswith("pixels")}
-    elif name == "mbsnn":
+    elif name.startswith("mbsnn"):
         duration, inputs = 100.0, {}
     else:
         duration, inputs = 100.0, {"input": rng.uniform(0.0, 100.0, 56 * 56)}
