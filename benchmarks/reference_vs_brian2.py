@@ -17,24 +17,24 @@ done in a warm-up run on one image and not counted. Targets (issue): reference a
 least 50x faster than Brian2/numpy and 10x faster than Brian2/cython.
 
 Measured (this repository's 2-core machine, 25 places x 1 epoch, same run, CPU
-seconds): reference 1.00 s, Brian2 numpy 10.6 s (10.6x), Brian2 cython 6.7 s (6.7x),
+seconds): reference 0.38 s, Brian2 numpy 9.19 s (23.9x), Brian2 cython 5.62 s (14.6x),
 with identical spike counts (307.9 excitatory spikes per image) and final mean weight
-on all three. The targets (50x numpy, 10x cython) are not reached. Where the time goes
-on the reference backend, per 350 ms image (about 40 ms CPU):
+on all three. The cython target (10x) is reached, the numpy one (50x) is not. Where the
+time goes on the reference backend, per 350 ms image (about 14.5 ms CPU, measured by
+switching parts off on the same inputs):
 
-- about 18 ms in the compiled step loop without learning: 700 steps x 1,584 neurons;
+- about 6 ms in the compiled step loop without learning: 700 steps x 1,584 neurons;
   the excitatory conductance neurons receive input almost every step (784 inputs at
   about 16 Hz), so each of their updates evaluates one exponential (exact integration
-  of the membrane with the step's mean conductance); the static lateral inhibition
-  (about 300 inhibitory spikes x 399 targets) is minor;
-- about 11 ms for plasticity: 1.7 million plastic arrivals (6-7 ns each: depression,
-  trace, weight delivery) and the potentiation of 784 synapses per excitatory spike;
-- about 10 ms of Python per image: reading, normalising and writing the 313,600
-  weights, building the input spike arrays, reset.
+  of the membrane with the step's mean conductance);
+- about 4 ms for plasticity: 1.7 million plastic arrivals (depression, trace, weight
+  delivery) and the potentiation of 784 synapses per excitatory spike;
+- about 3 ms of Python for the weight normalisation (reading, normalising and writing
+  the 313,600 weights), and the rest for input arrays and reset.
 
 Brian2's numpy target does the same arithmetic vectorised per step; at this size its
 cost is a per-step overhead of about 50 numpy calls plus the per-run setup, which is
-why the gap is about 10x rather than 50x. Closing it further needs the weight
+why the gap is about 24x rather than 50x. Closing it further needs the weight
 normalisation inside the compiled loop and a cheaper conductance update (for example
 tabulating the exponential), which would trade exactness for speed.
 """
