@@ -234,13 +234,16 @@ def table_decay(x, steps, table, r, dt, tau):  # fmt: skip
 
 
 @njit(cache=True, _nrt=False)
-def arrive(g, j, dt, plastic_on, seg_start, seg_proj, p_post, p_w, seg_xpre, seg_last, rules, pre_table,
+def arrive(g, nxt, j, dt, plastic_on, seg_start, seg_proj, p_post, p_w, seg_xpre, seg_last, rules, pre_table,
            tr_shift, proj_inh, xpost1, isyn):  # fmt: skip
     """Spikes arriving at segment ``g`` at step ``j``: depress, deliver, advance the pre trace.
 
     Each synapse is first depressed by the postsynaptic trace (its value at time ``j``)
     and then delivers its new weight to ``isyn[0]`` (excitatory) or ``isyn[1]``
-    (inhibitory). Returns the number of weight updates.
+    (inhibitory). Returns the number of weight updates. ``nxt`` is the first synapse of
+    the segment that arrives next: its weights and targets are prefetched meanwhile, a
+    line every 8 synapses (segments lie apart, so the hardware prefetcher would start
+    on each one late).
     """
     r = seg_proj[g]
     rk = rules[r, R_KIND]
@@ -248,19 +251,28 @@ def arrive(g, j, dt, plastic_on, seg_start, seg_proj, p_post, p_w, seg_xpre, seg
     w_min, w_max, dep = rules[r, R_W_MIN], rules[r, R_W_MAX], rules[r, R_DEP]
     target = np.uint64(1 if proj_inh[r] else 0)
     lo, hi = np.uint64(seg_start[g]), np.uint64(seg_start[g + 1])
+    ahead = np.uint64(nxt) - lo  # wraps when the next segment lies before this one: the sum below is exact
     updates = 0
     if not plastic_on:
         for q in range(lo, hi):
+            if (q & np.uint64(7)) == 0:
+                prefetch(p_w, ahead + q)
+                prefetch(p_post, ahead + q)
             isyn[target, p_post[q]] += p_w[q]
     elif rk == RULE_ADDITIVE:
         step = dep * w_max
-        for q in range(lo, hi):
+        for q in range(lo, hi):  # without branches: a zero trace keeps the weight
+            if (q & np.uint64(7)) == 0:
+                prefetch(p_w, ahead + q)
+                prefetch(p_post, ahead + q)
             post = p_post[q]
             x_post = xpost1[np.uint64(post + shift)]
-            if x_post != 0.0:
-                p_w[q] = min(max(p_w[q] - step * x_post, w_min), w_max)
-                updates += 1
-            isyn[target, post] += p_w[q]
+            w = p_w[q]
+            moved = min(max(w - step * x_post, w_min), w_max)
+            w = moved if x_post != 0.0 else w
+            p_w[q] = w
+            updates += x_post != 0.0
+            isyn[target, post] += w
     else:
         for q in range(lo, hi):
             post = p_post[q]
@@ -283,29 +295,43 @@ def arrive(g, j, dt, plastic_on, seg_start, seg_proj, p_post, p_w, seg_xpre, seg
 
 
 @njit(cache=True, _nrt=False)
-def potentiate(i, t, dt, post_ptr, post_syn, post_seg, seg_proj, seg_xpre, seg_last, p_w, rules, pre_table,
-               tr_shift, xpost2, x_pre):  # fmt: skip
+def potentiate(i, t, dt, post_ptr, post_syn, post_seg, post_rule, seg_proj, seg_xpre, seg_last, p_w, rules,
+               pre_table, tr_shift, xpost2, x_pre):  # fmt: skip
     """Potentiate the plastic synapses onto neuron ``i``, which spikes at step ``t``; return the updates.
 
-    The presynaptic traces are gathered first (into ``x_pre``, one per incoming synapse),
-    so the scattered weight updates that follow do not wait on one another; when all
-    the synapses follow one additive rule, that loop has no branches.
+    The presynaptic traces are gathered first (into ``x_pre``, one per incoming synapse)
+    while the weights are prefetched, so the scattered weight updates that follow do not
+    wait on one another. When all the synapses follow one rule (``post_rule[i] >= 0``)
+    whose decay table ends in 0, the gathering has no branches (a look-up clamped to
+    the table's end is :func:`table_decay`); when that rule is additive, neither has
+    the update loop.
     """
     lo = post_ptr[i]
     n = post_ptr[i + 1] - lo
     if n == 0:
         return 0
-    r0 = seg_proj[post_seg[lo]]
-    one_rule = True
+    r0 = post_rule[i]
     base = np.uint64(lo)  # unsigned indices: no negative-index wrap
-    for q in range(np.uint64(n)):
-        prefetch(p_w, post_syn[base + q])  # the weights load while the traces are computed
-        g = np.uint64(post_seg[base + q])
-        r = seg_proj[g]
-        one_rule &= r == r0
-        x_pre[q] = table_decay(seg_xpre[g], t - seg_last[g], pre_table, r, dt, rules[r, R_TAU_PRE])
+    last = pre_table.shape[1] - 1
+    if r0 >= 0 and pre_table[r0, last] == 0.0:
+        for q in range(np.uint64(n)):
+            prefetch(p_w, post_syn[base + q])  # the weights load while the traces are computed
+            g = np.uint64(post_seg[base + q])
+            x_pre[q] = seg_xpre[g] * pre_table[r0, min(t - seg_last[g], last)]
+    elif r0 >= 0:
+        tau = rules[r0, R_TAU_PRE]
+        for q in range(np.uint64(n)):
+            prefetch(p_w, post_syn[base + q])
+            g = np.uint64(post_seg[base + q])
+            x_pre[q] = table_decay(seg_xpre[g], t - seg_last[g], pre_table, r0, dt, tau)
+    else:
+        for q in range(np.uint64(n)):
+            prefetch(p_w, post_syn[base + q])
+            g = np.uint64(post_seg[base + q])
+            r = seg_proj[g]
+            x_pre[q] = table_decay(seg_xpre[g], t - seg_last[g], pre_table, r, dt, rules[r, R_TAU_PRE])
     updates = 0
-    if one_rule and rules[r0, R_KIND] == RULE_ADDITIVE:
+    if r0 >= 0 and rules[r0, R_KIND] == RULE_ADDITIVE:
         w_min, w_max = rules[r0, R_W_MIN], rules[r0, R_W_MAX]
         step = rules[r0, R_POT] * w_max
         for q in range(np.uint64(n)):
@@ -450,8 +476,8 @@ def run_steps(
     j0, j1, dt, plastic_on, groups, n_updated, params, v, isyn, ie, ii, theta, ica, refr, flag, flag_words, counts,
     buf, dirty, dirty_words, row_any, d_seg_ptr, d_seg_start, d_seg_delay, d_seg_rec, d_post, d_w, d_blk_ptr, d_blk,
     row_seg_ptr, seg_start, seg_delay, seg_proj, p_post, p_w, seg_xpre, seg_last,
-    post_ptr, post_syn, post_seg, proj_inh, tr_lo, tr_hi, tr_shift, post_tr_ptr, post_tr_idx, trace_proj, rules,
-    pre_table, post_decay1, post_decay2, xpost1, xpost2, x_pre, ev, ev_n,
+    post_ptr, post_syn, post_seg, post_rule, proj_inh, tr_lo, tr_hi, tr_shift, post_tr_ptr, post_tr_idx, trace_proj,
+    rules, pre_table, post_decay1, post_decay2, xpost1, xpost2, x_pre, ev, ev_n,
     pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng,
     rec_mask, rec_t, rec_i, rec_n, headroom, var_idx, var_code, var_out, stats,
 ):  # fmt: skip
@@ -492,8 +518,10 @@ def run_steps(
         # 2. arrivals at plastic synapses (post traces hold their value at time j)
         for e in range(ev_n[slot]):
             g = ev[slot, e]
-            stats[ST_PLASTIC_UPDATES] += arrive(g, j, dt, plastic_on, seg_start, seg_proj, p_post, p_w, seg_xpre,
-                                                seg_last, rules, pre_table, tr_shift, proj_inh, xpost1, isyn)  # fmt: skip
+            nxt = seg_start[ev[slot, e + 1] if e + 1 < ev_n[slot] else g]
+            stats[ST_PLASTIC_UPDATES] += arrive(g, nxt, j, dt, plastic_on, seg_start, seg_proj, p_post, p_w,
+                                                seg_xpre, seg_last, rules, pre_table, tr_shift, proj_inh, xpost1,
+                                                isyn)  # fmt: skip
             stats[ST_SYN_EVENTS] += seg_start[g + 1] - seg_start[g]
         ev_n[slot] = 0
         # postsynaptic traces advance to the end of the step
@@ -521,8 +549,8 @@ def run_steps(
                             if plastic_on:
                                 theta[i] += params[lo, C_THETA_PLUS]
                                 stats[ST_PLASTIC_UPDATES] += potentiate(
-                                    i, j + 1, dt, post_ptr, post_syn, post_seg, seg_proj, seg_xpre, seg_last, p_w,
-                                    rules, pre_table, tr_shift, xpost2, x_pre,
+                                    i, j + 1, dt, post_ptr, post_syn, post_seg, post_rule, seg_proj, seg_xpre, seg_last,
+                                    p_w, rules, pre_table, tr_shift, xpost2, x_pre,
                                 )  # fmt: skip
                             post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2)
                             emit(i, j + 1, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg_delay,

@@ -207,10 +207,12 @@ class Layout:
     seg_proj: np.ndarray
     p_post: np.ndarray
     p_w: np.ndarray
-    # incoming plastic synapses by post neuron: synapse index and its segment
+    # incoming plastic synapses by post neuron: synapse index and its segment; the rule all of them
+    # follow (-1 when they follow several)
     post_ptr: np.ndarray
     post_syn: np.ndarray
     post_seg: np.ndarray
+    post_rule: np.ndarray
     # per plastic projection: inhibitory?, post traces [tr_lo, tr_hi), trace index = post + tr_shift
     proj_inh: np.ndarray
     tr_lo: np.ndarray
@@ -316,6 +318,13 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
     post_order = np.argsort(p_post, kind="stable")
     post_ptr = np.concatenate([[0], np.cumsum(np.bincount(p_post, minlength=n))]).astype(np.int64)
     seg_of = np.repeat(np.arange(seg_first.size, dtype=np.int64), np.diff(seg_start))
+    post_rule = np.full(n, -1, dtype=np.int64)
+    if p_post.size:
+        rule_of = p_proj_s[post_order]
+        first_rule = rule_of[np.minimum(post_ptr[:-1], p_post.size - 1)]
+        differs = np.bincount(p_post[post_order], weights=rule_of != first_rule[p_post[post_order]], minlength=n)
+        post_rule = np.where(differs == 0, first_rule, -1).astype(np.int64)
+    index = np.uint32 if max(n, p_post.size, seg_first.size) < 2**32 else np.int64
     # which post traces belong to each neuron
     tr_neuron = np.zeros(n_traces, dtype=np.int64)
     base = 0
@@ -359,8 +368,9 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
         p_post=p_post.astype(np.uint32) if n < 2**32 else p_post,
         p_w=cat(pl["w"], np.float64)[porder],
         post_ptr=post_ptr,
-        post_syn=post_order.astype(np.int64),
-        post_seg=seg_of[post_order],
+        post_syn=post_order.astype(index),
+        post_seg=seg_of[post_order].astype(index),
+        post_rule=post_rule,
         proj_inh=np.array(proj_inh, dtype=np.bool_),
         tr_lo=np.array(tr_lo, dtype=np.int64),
         tr_hi=np.array(tr_hi, dtype=np.int64),
