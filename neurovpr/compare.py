@@ -67,6 +67,7 @@ class BackendComparison:
     seconds_per_query: float | None = None
     energy: dict[str, Any] | None = None
     deployed_from: str | None = None
+    notes: tuple[str, ...] = ()
     predictions: np.ndarray | None = None
     output_counts: np.ndarray | None = None
 
@@ -89,6 +90,8 @@ class BackendComparison:
             out["energy"] = dict(self.energy)
         if self.deployed_from is not None:
             out["deployed_from"] = self.deployed_from
+        if self.notes:
+            out["notes"] = list(self.notes)
         return out
 
 
@@ -122,6 +125,11 @@ class Comparison:
                 deployed.setdefault(row.deployed_from, []).append(row.backend)
         for source, targets in deployed.items():
             out.append(f"trained on {source}, deployed to {', '.join(targets)} (the run's learned weights, plasticity off)")
+        for row in self.rows:
+            for note in row.notes if row.ran else ():
+                line = f"{row.backend}: {note}"
+                if line not in out:
+                    out.append(line)
         ref = self.reference_backend
         if ref is not None:
             out.append(f"agreement and spike-count correlation are measured against {ref}")
@@ -283,6 +291,7 @@ def _check_result(model: str, backend: str, result: Any) -> dict[str, Any]:
         "output_counts": counts,
         "seconds_per_query": seconds,
         "activity": None if activity is None else dict(activity),
+        "notes": tuple(str(n) for n in result.get("notes") or ()),
     }
 
 
@@ -444,6 +453,7 @@ def _one_backend(
         seconds_per_query=res["seconds_per_query"],
         energy=energy,
         deployed_from=trained_on if trained_on is not None and trained_on != name else None,
+        notes=res["notes"],
         predictions=res["predictions"],
         output_counts=res["output_counts"],
     )

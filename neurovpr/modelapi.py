@@ -54,8 +54,9 @@ class ModelPlugin:
         accuracy metrics), ``"predictions"`` (one predicted place per query, a list of
         ints), ``"output_counts"`` (a ``(queries, outputs)`` array of output spike
         counts), ``"seconds_per_query"`` and ``"activity"`` (per-inference counts as
-        ``Simulation.statistics()`` gives them). A model that cannot run on the
-        backend raises :class:`~neurovpr.errors.UnsupportedFeatureError` naming why.
+        ``Simulation.statistics()`` gives them), and optionally ``"notes"`` (sentences
+        on how the model was deployed there, shown by ``compare``). A model that cannot
+        run on the backend raises :class:`~neurovpr.errors.UnsupportedFeatureError` naming why.
         """
         raise NotImplementedError(f"Model {self.name!r} does not implement inference for compare.")
 

@@ -3,6 +3,7 @@
 - :mod:`.network` -- the graph of one module (paper parameters)
 - :mod:`.training` -- training one module, presenting images
 - :mod:`.inference` -- assignment, hyperactive neurons, fusion, ensembles
+- :mod:`.deployment` -- the current-based approximation for backends without conductance synapses
 - :mod:`.parallel` -- process pool / Dask execution of module jobs
 - :mod:`.runs` -- run directories: plan, resume, query responses, similarities
 - :mod:`.report` -- metrics at several sequence lengths and plots

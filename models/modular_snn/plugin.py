@@ -29,6 +29,7 @@ from neurovpr.data.encoding import RateCoding
 from neurovpr.fileio import atomic_write_text
 from neurovpr.modelapi import ModelPlugin, read_run_info
 
+from .deployment import deployed_network, deployment_form, static_network
 from .network import ModuleParameters
 from .parallel import default_workers
 from .report import evaluate_similarities, write_plots
@@ -274,14 +275,20 @@ class ModularSNNPlugin(ModelPlugin):
         return out
 
     # ------------------------------------------------------------------ infer
-    def infer(self, run_dir: Path, data: Path | None, backend: str, *, seed: int = 0) -> dict[str, Any]:
+    def infer(
+        self, run_dir: Path, data: Path | None, backend: str, *, seed: int = 0, current_based: bool = False
+    ) -> dict[str, Any]:
         """Run every learned module of ``run_dir`` on ``backend`` over the query set of ``data`` (``neurovpr compare``).
 
         The learned weights and thresholds run with plasticity off: on a backend that
         learns, the stored networks as ``eval`` runs them; on one that does not, the
-        learned STDP projections deployed as static synapses. Before any query, a
-        backend that cannot run the module (its conductance-based, adaptive-threshold
-        neurons on Nengo or Lava) refuses it with
+        learned STDP projections deployed as static synapses. A backend that cannot run
+        the module's conductance-based, adaptive-threshold neurons (Nengo, NengoLoihi,
+        Lava) runs its current-based approximation instead (:mod:`.deployment`;
+        ``V_ref`` calibrated per module on the reference backend over the module's own
+        reference images), and the result's ``notes`` say so; ``current_based=True``
+        runs that approximation on any backend (to measure it against the original on
+        ``reference``). Before any query, a backend that refuses every form raises
         :class:`~neurovpr.errors.UnsupportedFeatureError` naming the feature. ``seed``
         0 gives the Poisson input of ``eval``. The prediction of a query is the
         ensemble's most similar place; the output counts are the excitatory spike
@@ -304,8 +311,9 @@ class ModularSNNPlugin(ModelPlugin):
         modules = run_info.get("modules") or []
         if not modules:
             raise nv.ValidationError(f"{run_dir}/run.json lists no modules; was the run complete?")
+        cfg_settings = TrainingSettings.from_dict(run_info["settings"])
         first = _module_network(run_dir, modules[0]["name"])
-        chosen.check_network(first if learns else _deployed(first))
+        form = deployment_form(first, backend, dt=cfg_settings.dt, current_based=current_based)
         data = data or run_info.get("data")
         if not data:
             raise nv.ValidationError(f"{run_dir}/run.json names no dataset; pass --data.")
@@ -319,7 +327,8 @@ class ModularSNNPlugin(ModelPlugin):
             raise nv.ValidationError(f"the reference images of {data} differ from those the run in {run_dir} was trained on.")
         query = traverse.query.preprocessed(progress=True)
         images = np.ascontiguousarray(np.asarray(query, dtype=np.uint8).reshape(len(query), -1))
-        cfg = json.dumps(TrainingSettings.from_dict(run_info["settings"]).as_dict(), sort_keys=True)
+        cfg = json.dumps(cfg_settings.as_dict(), sort_keys=True)
+        ref_rows = np.ascontiguousarray(np.asarray(reference, dtype=np.uint8).reshape(len(reference), -1))
         jobs = []
         for mod in modules:
             path = run_dir / "modules" / f"{mod['name']}.h5"
@@ -327,7 +336,8 @@ class ModularSNNPlugin(ModelPlugin):
                 raise nv.ValidationError(f"{path} is missing; the run directory is incomplete.")
             net_bytes = path.read_bytes()
             job_seed = derive_seed(int(mod["seed"]), 2) if seed == 0 else derive_seed(int(mod["seed"]), 2, int(seed))
-            jobs.append((cfg, backend, net_bytes, job_seed, learns))
+            own = ref_rows[np.asarray(mod["places"], dtype=np.int64)] if form != "original" else ref_rows[:0]
+            jobs.append((cfg, backend, net_bytes, job_seed, learns, form, own, derive_seed(int(mod["seed"]), 3)))
         results: dict[int, dict[str, Any]] = {}
 
         def keep(index: int, result: bytes) -> None:
@@ -351,7 +361,10 @@ class ModularSNNPlugin(ModelPlugin):
         totals = np.sum(stats, axis=0)
         activity = {k: float(v) / n_q for k, v in zip(keys, totals, strict=True)}
         activity["dt_ms"] = float(json.loads(cfg)["dt"])
+        notes = sorted({str(results[i]["note"]) for i in range(len(modules)) if str(results[i]["note"])})
         return {
+            "notes": notes,
+            "deployment": form,
             "metrics": metrics,
             "predictions": np.argmax(similarity, axis=0).astype(np.int64),
             "output_counts": np.concatenate([counts[str(m["name"])] for m in modules], axis=1),
@@ -367,18 +380,22 @@ def _module_network(run_dir: Path, name: str) -> nv.Network:
     return nv.load(path)
 
 
-def _deployed(network: nv.Network) -> nv.Network:
-    """The learned module with every plastic projection fixed at its learned weights (static synapses)."""
-    out = network.copy()
-    for proj in network.projections.values():
-        if not isinstance(proj.synapse, nv.StaticSynapse):
-            syn = proj.synapse
-            out.replace_projection(proj.replace(synapse=nv.StaticSynapse(weight=syn.weight, delay=syn.delay)))
-    return out
+def _infer_job(
+    images: np.ndarray,
+    settings: str,
+    backend: str,
+    network: bytes,
+    seed: int,
+    learns: bool,
+    form: str,
+    calibration: np.ndarray,
+    calibration_seed: int,
+) -> bytes:
+    """One module's responses to every query, activity counts, time and deployment note, as ``.npz`` bytes.
 
-
-def _infer_job(images: np.ndarray, settings: str, backend: str, network: bytes, seed: int, learns: bool) -> bytes:
-    """One module's responses to every query, its activity counts and its time, as ``.npz`` bytes (runs in a worker)."""
+    Runs in a worker. ``form`` is a :data:`.deployment.FORMS` entry; the current-based
+    forms calibrate ``V_ref`` on ``calibration`` (the module's own reference images).
+    """
     import time
 
     from .parallel import _network_from_bytes, npz_bytes
@@ -386,7 +403,13 @@ def _infer_job(images: np.ndarray, settings: str, backend: str, network: bytes, 
 
     cfg = TrainingSettings.from_dict(json.loads(settings))
     net = _network_from_bytes(network)
-    sim = nv.compile(net if learns else _deployed(net), backend=backend, dt=cfg.dt, seed=int(seed))
+    note = ""
+    if form == "original":
+        run_net = net if learns else static_network(net)
+    else:
+        run_net, text = deployed_network(net, form, calibration, coding=cfg.coding, dt=cfg.dt, seed=int(calibration_seed))
+        note = text or ""
+    sim = nv.compile(run_net, backend=backend, dt=cfg.dt, seed=int(seed))
     try:
         sim.plasticity(False)
         before = sim.statistics()
@@ -400,7 +423,7 @@ def _infer_job(images: np.ndarray, settings: str, backend: str, network: bytes, 
             close()
     keys = ("steps", "neuron_updates", "spikes", "synaptic_events", "plastic_updates")
     stats = np.array([float(after.get(k, 0) - before.get(k, 0)) for k in keys])
-    return npz_bytes(counts=counts, stats=stats, stat_keys=np.array(keys), seconds=np.float64(seconds))
+    return npz_bytes(counts=counts, stats=stats, stat_keys=np.array(keys), seconds=np.float64(seconds), note=np.array(note))
 
 
 #: The plugin instance named by the ``neurovpr.models`` entry point.

@@ -329,8 +329,8 @@ def test_locsnet_converted_network_on_loihi_emulators(dataset: Path, tmp_path: P
     assert result.rows[1].deployed_from == result.rows[2].deployed_from == "reference"
 
 
-def test_modular_snn_refused_on_nengo_and_same_as_eval_on_reference(dataset: Path, tmp_path: Path):
-    """The Modular SNN's neurons have no Nengo equivalent: refused before running, naming the cell type. On the
+def test_modular_snn_deployed_on_nengo_and_same_as_eval_on_reference(dataset: Path, tmp_path: Path):
+    """On Nengo the module runs as its current-based approximation, and compare says so. On the
     reference backend compare reproduces ``eval``'s ensemble metrics (same seeds, plasticity off)."""
     from neurovpr.models.modular_snn.plugin import MODEL
 
@@ -339,7 +339,11 @@ def test_modular_snn_refused_on_nengo_and_same_as_eval_on_reference(dataset: Pat
                                                  "--workers", "1", "--members", "2", "--no-progress"]))  # fmt: skip
     result = compare.compare_model(run, dataset, "reference,nengo", progress=False, model=MODEL)
     ref, nengo = result.rows
-    assert not nengo.ran and "IF_cond_exp_adaptive" in nengo.refused and "'nengo'" in nengo.refused
+    assert nengo.ran, nengo.refused
+    assert nengo.output_counts.shape == ref.output_counts.shape
+    assert any("current-based approximation" in note for note in nengo.notes)
+    assert any(line.startswith("nengo: ") and "current-based" in line for line in result.notes())
+    assert "notes" in nengo.as_dict() and not ref.notes
     assert ref.ran and ref.output_counts.shape == (N_PLACES, 2 * 2 * 8)  # 2 members x 2 modules x 8 neurons
     ev = argparse.Namespace(run=run, data=dataset, backend="reference", seq_len=1, workers=1, report=tmp_path / "eval",
                             no_progress=True, members_used=None)  # fmt: skip
