@@ -348,7 +348,10 @@ class ModularSNNPlugin(ModelPlugin):
 
         bar = tqdm(total=len(jobs), desc=f"compare modules ({backend})", unit="module", leave=False)
         try:
-            run_jobs(_infer_job, images, jobs, keep, workers=default_workers(), progress=bar)
+            # a backend other than the training one may start its own runtime processes (Lava
+            # forks them), which it cannot do inside a spawned worker: deployments run in-process
+            workers = default_workers() if backend == run_info.get("backend") else 1
+            run_jobs(_infer_job, images, jobs, keep, workers=workers, progress=bar)
         finally:
             bar.close()
         counts = {str(mod["name"]): results[i]["counts"] for i, mod in enumerate(modules)}
