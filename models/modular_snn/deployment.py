@@ -269,6 +269,7 @@ def to_current_based(
     seed: int = 0,
     one_filter: bool = False,
     v_init_at_reset: bool = False,
+    one_delay: bool = False,
     name: str | None = None,
 ) -> nv.Network:
     """The current-based approximation of a trained module (see the module docstring).
@@ -288,6 +289,11 @@ def to_current_based(
         (``tau_syn_E``), scaling inhibitory weights by ``tau_syn_I / tau_syn_E``.
     v_init_at_reset
         Start every neuron at ``v_reset`` (NengoLoihi's only initial state).
+    one_delay
+        Give every connection of a projection with several delays the projection's mean
+        delay (on the ``dt`` grid): Loihi emulators spend one input axon per input and
+        delay step, so the module's per-synapse input delays (U(0.5, 10) ms) exceed a
+        core's input axons; with rate-coded Poisson input they only decorrelate arrivals.
     name
         Name of the new network (default: the original's with ``_current``).
     """
@@ -336,6 +342,8 @@ def to_current_based(
         if proj.receptor_type == "inhibitory":
             weight = weight * inh_scale.get(proj.post, 1.0)
         delay = None if proj.synapse.delay is None else conns.delay
+        if one_delay and delay is not None and np.unique(delay).size > 1:
+            delay = float(max(np.rint(float(np.mean(delay)) / dt), 1.0) * dt)
         out.connect(
             proj.pre, proj.post, proj.connector, nv.StaticSynapse(weight=weight, delay=delay),
             receptor_type=proj.receptor_type, name=proj.name,
@@ -344,7 +352,8 @@ def to_current_based(
 
 
 #: Deployment forms, in the order they are tried: the original network, its current-based
-#: approximation, and the approximation with Loihi's restrictions (one filter, start at v_reset).
+#: approximation, and the approximation with Loihi's restrictions (one filter, start at v_reset,
+#: one delay per projection).
 FORMS = ("original", "current", "current-one-filter")
 
 
@@ -363,7 +372,7 @@ def _placeholder_voltages(network: nv.Network) -> ReferenceVoltages:
 def _build(network: nv.Network, form: str, v_ref: ReferenceVoltages, dt: float, seed: int) -> nv.Network:
     if form == "current":
         return to_current_based(network, v_ref, dt=dt, seed=seed)
-    return to_current_based(network, v_ref, dt=dt, seed=seed, one_filter=True, v_init_at_reset=True)
+    return to_current_based(network, v_ref, dt=dt, seed=seed, one_filter=True, v_init_at_reset=True, one_delay=True)
 
 
 def deployment_form(network: nv.Network, backend: str, *, dt: float, current_based: bool = False) -> str:
@@ -430,6 +439,7 @@ def deployed_network(
                 )
         note += (
             "; one synaptic filter per neuron (" + ", ".join(parts) + ", inhibitory weights scaled to the same charge) "
-            "and voltages starting at v_reset, as the backend requires"
+            "and voltages starting at v_reset, and each projection's mean delay for all its connections, as the "
+            "backend requires"
         )
     return _build(network, form, v_ref, dt, seed), note

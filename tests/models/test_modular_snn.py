@@ -513,6 +513,11 @@ def test_current_based_conversion_thresholds_and_weights_are_analytic() -> None:
     assert loihi.populations["exc"].cell_type.tau_syn_I == 1.0 and loihi.populations["inh"].cell_type.tau_syn_I == 0.5
     np.testing.assert_allclose(expand(loihi, "lateral", dt=0.5, seed=0).weight, lat.weight * 0.5)
     assert loihi.populations["inh"].v_init == -45.0
+    # and one delay per projection: the mean of the per-synapse input delays, on the 0.5 ms grid
+    one = to_current_based(net, v_ref, dt=0.5, one_filter=True, v_init_at_reset=True, one_delay=True)
+    delays = expand(one, "pixels->exc", dt=0.5, seed=0).delay
+    assert np.unique(src.delay).size > 1 and np.unique(delays).size == 1
+    assert delays[0] == pytest.approx(round(src.delay.mean() / 0.5) * 0.5)
     bad = ReferenceVoltages(values={**v_ref.values, "exc": {"excitatory": np.full(10, 5.0), "inhibitory": v_exc_i}}, source="x")
     with pytest.raises(nv.ValidationError, match="reversal potential"):
         to_current_based(net, bad, dt=0.5)
@@ -520,8 +525,9 @@ def test_current_based_conversion_thresholds_and_weights_are_analytic() -> None:
 
 def test_converted_module_agrees_with_the_original_on_reference_nengo_and_nengo_loihi() -> None:
     """Measured with these seeds: agreement of the predicted place with the original's (same Poisson seed on
-    reference) 0.67 converted on reference, 0.83 on nengo, 0.79 on nengo-loihi; the original itself with another
-    Poisson seed agrees 0.83 (chance: 1/6). Over image seeds 0-3 the ranges were 0.67-0.96, 0.58-0.83, 0.50-0.79."""
+    reference) 0.67 converted on reference, 0.83 on nengo, 0.58 on nengo-loihi (one delay per projection; 0.79 with
+    the per-synapse delays); the original itself with another Poisson seed agrees 0.83 (chance: 1/6). Over image
+    seeds 0-3 the ranges were 0.67-0.96, 0.58-0.83, 0.50-0.79 (the last with per-synapse delays)."""
     from neurovpr.models.modular_snn.deployment import deployed_network, deployment_form, static_network
     from neurovpr.models.modular_snn.training import Presenter, record_responses
 
@@ -542,7 +548,7 @@ def test_converted_module_agrees_with_the_original_on_reference_nengo_and_nengo_
     assert deployment_form(net, "reference", dt=0.5) == "original"
     assert deployment_form(net, "nengo", dt=0.5) == "current"
     assert deployment_form(net, "nengo-loihi", dt=0.5) == "current-one-filter"
-    bounds = {("current", "reference"): 0.5, ("current", "nengo"): 0.6, ("current-one-filter", "nengo-loihi"): 0.6}
+    bounds = {("current", "reference"): 0.5, ("current", "nengo"): 0.6, ("current-one-filter", "nengo-loihi"): 0.45}
     for (form, backend), bound in bounds.items():
         deployed, note = deployed_network(net, form, images.reshape(6, -1), coding=settings.coding, dt=0.5, seed=5)
         assert note is not None and note.startswith("deployed as the current-based approximation")
