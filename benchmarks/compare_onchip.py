@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from neurovpr.cli.train_cmd import parse_train_arguments
 from neurovpr.compare import compare_model
 from neurovpr.compare_plots import plot_comparison
 from neurovpr.data.generic import open_traverse, write_generic
@@ -70,17 +71,10 @@ def _subset(data: Path, start: int, places: int, queries: int, out: Path) -> Pat
     return write_generic(sub, out, overwrite=True)
 
 
-def _train(model: str, plugin: Any, data: Path, run: Path, seed: int, extra: list[str]) -> dict[str, Any]:
+def _train(plugin: Any, data: Path, run: Path, seed: int, extra: list[str]) -> dict[str, Any]:
     """Train with the plugin's own options (defaults, then ``--train-args``) on the reference backend."""
-    p = argparse.ArgumentParser(prog=f"train --model {model}")
-    p.add_argument("--data", type=Path)
-    p.add_argument("--out", type=Path)
-    p.add_argument("--backend", default="reference")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--resume", action="store_true")
-    p.add_argument("--scheduler", default=None)
-    plugin.add_train_arguments(p)
-    args = p.parse_args(["--data", str(data), "--out", str(run), "--seed", str(seed), *extra])
+    argv = ["--model", plugin.name, "--data", str(data), "--out", str(run), "--seed", str(seed), *extra]
+    _, args = parse_train_arguments(plugin, argv)
     start = time.perf_counter()
     summary = plugin.train(args)
     summary["wall_seconds"] = time.perf_counter() - start
@@ -129,7 +123,7 @@ def main() -> int:
         if (run / "run.json").is_file():
             print(f"reusing the trained run in {run}", file=sys.stderr)
         else:
-            info["training"] = _train(args.model, plugin, subset, run, args.seed, shlex.split(args.train_args))
+            info["training"] = _train(plugin, subset, run, args.seed, shlex.split(args.train_args))
     start = time.perf_counter()
     comparison = compare_model(run, subset, args.backends, hardware=args.hw, seed=args.seed, model=plugin)
     info["compare_wall_seconds"] = time.perf_counter() - start

@@ -51,18 +51,11 @@ VARIANTS = {
 
 
 def _train(data: Path, out: Path, epochs: int, extra: list[str], resume: bool) -> dict[str, Any]:
-    from neurovpr.models.locsnet.plugin import MODEL
+    from neurovpr.cli.train_cmd import parse_train_arguments
 
-    p = argparse.ArgumentParser()
-    p.add_argument("--data", type=Path)
-    p.add_argument("--out", type=Path)
-    p.add_argument("--backend", default="reference")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--resume", action="store_true")
-    p.add_argument("--scheduler", default=None)
-    MODEL.add_train_arguments(p)
-    argv = ["--data", str(data), "--out", str(out), "--epochs", str(epochs), *extra] + (["--resume"] if resume else [])
-    return MODEL.train(p.parse_args(argv))
+    argv = ["--model", "locsnet", "--data", str(data), "--out", str(out), "--epochs", str(epochs), *extra]
+    model, args = parse_train_arguments("locsnet", argv + (["--resume"] if resume else []))
+    return model.train(args)
 
 
 def _inputs(run_dir: Path, data: Path) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray]:

@@ -227,19 +227,8 @@ class ModularSNNPlugin(ModelPlugin):
         if run_info.get("format") != "neurovpr-modular-snn-run/1":
             raise nv.ValidationError(f"{run_dir}/run.json is not a complete Modular SNN run (format {run_info.get('format')!r}).")
         backend = getattr(args, "backend", None) or run_info["backend"]
-        data = getattr(args, "data", None) or run_info.get("data")
-        if not data:
-            raise nv.ValidationError(f"{run_dir}/run.json names no dataset; pass --data.")
-        traverse = load_traverse(data, run_info.get("places"))
-        if traverse.n_reference != int(run_info["n_reference"]):
-            raise nv.ValidationError(
-                f"{data} has {traverse.n_reference} reference places but the run was trained on {run_info['n_reference']}."
-            )
         progress = not opt["no_progress"]
-        reference = traverse.reference.preprocessed(progress=progress)
-        if reference_digest(reference) != run_info.get("reference_digest"):
-            raise nv.ValidationError(f"the reference images of {data} differ from those the run in {run_dir} was trained on.")
-        query = traverse.query.preprocessed(progress=progress)
+        data, traverse, reference, query = _run_data(run_dir, run_info, getattr(args, "data", None), progress)
         n_members = int(run_info["members"])
         used = n_members if opt["members_used"] is None else int(opt["members_used"])
         if not 1 <= used <= n_members:
@@ -314,18 +303,7 @@ class ModularSNNPlugin(ModelPlugin):
         cfg_settings = TrainingSettings.from_dict(run_info["settings"])
         first = _module_network(run_dir, modules[0]["name"])
         form = deployment_form(first, backend, dt=cfg_settings.dt, current_based=current_based)
-        data = data or run_info.get("data")
-        if not data:
-            raise nv.ValidationError(f"{run_dir}/run.json names no dataset; pass --data.")
-        traverse = load_traverse(data, run_info.get("places"))
-        if traverse.n_reference != int(run_info["n_reference"]):
-            raise nv.ValidationError(
-                f"{data} has {traverse.n_reference} reference places but the run was trained on {run_info['n_reference']}."
-            )
-        reference = traverse.reference.preprocessed(progress=True)
-        if reference_digest(reference) != run_info.get("reference_digest"):
-            raise nv.ValidationError(f"the reference images of {data} differ from those the run in {run_dir} was trained on.")
-        query = traverse.query.preprocessed(progress=True)
+        data, traverse, reference, query = _run_data(run_dir, run_info, data, True)
         images = np.ascontiguousarray(np.asarray(query, dtype=np.uint8).reshape(len(query), -1))
         cfg = json.dumps(cfg_settings.as_dict(), sort_keys=True)
         ref_rows = np.ascontiguousarray(np.asarray(reference, dtype=np.uint8).reshape(len(reference), -1))
@@ -374,6 +352,23 @@ class ModularSNNPlugin(ModelPlugin):
             "seconds_per_query": float(sum(float(results[i]["seconds"]) for i in range(len(modules))) / n_q),
             "activity": activity,
         }
+
+
+def _run_data(run_dir: Path, run_info: dict[str, Any], data: Any, progress: bool) -> tuple[Any, Any, np.ndarray, np.ndarray]:
+    """``(data, traverse, reference, query)``: the dataset (``data`` or the run's own), checked against what the
+    run was trained on (place count and reference-image digest), and its preprocessed reference and query images."""
+    data = data or run_info.get("data")
+    if not data:
+        raise nv.ValidationError(f"{run_dir}/run.json names no dataset; pass --data.")
+    traverse = load_traverse(data, run_info.get("places"))
+    if traverse.n_reference != int(run_info["n_reference"]):
+        raise nv.ValidationError(
+            f"{data} has {traverse.n_reference} reference places but the run was trained on {run_info['n_reference']}."
+        )
+    reference = traverse.reference.preprocessed(progress=progress)
+    if reference_digest(reference) != run_info.get("reference_digest"):
+        raise nv.ValidationError(f"the reference images of {data} differ from those the run in {run_dir} was trained on.")
+    return data, traverse, reference, traverse.query.preprocessed(progress=progress)
 
 
 def _module_network(run_dir: Path, name: str) -> nv.Network:

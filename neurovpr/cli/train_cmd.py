@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Sequence
 from pathlib import Path
 
 from neurovpr.cli.main import _Parser
@@ -33,17 +34,23 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=run)
 
 
-def model_arguments(args: argparse.Namespace) -> tuple[ModelPlugin, argparse.Namespace]:
-    """Parse the command line again with the chosen model's options only.
+def parse_train_arguments(model: ModelPlugin | str, argv: Sequence[str]) -> tuple[ModelPlugin, argparse.Namespace]:
+    """``neurovpr train`` arguments ``argv`` (including ``--model``) parsed with ``model``'s options alone.
 
     Models may declare the same flag with different defaults (``--dt``); the listing
     parser accepts them all, and this parse gives the chosen model its own defaults.
+    Benchmarks and tests use it to train exactly as the command line does.
     """
-    model = get_model(args.model)
+    plugin = get_model(model) if isinstance(model, str) else model
     parser = _Parser(prog="neurovpr train")
     _common(parser)
-    model.add_train_arguments(parser.add_argument_group(f"{args.model} options"))  # type: ignore[arg-type]
-    return model, parser.parse_args(args.argv[1:])
+    plugin.add_train_arguments(parser.add_argument_group(f"{plugin.name} options"))  # type: ignore[arg-type]
+    return plugin, parser.parse_args(list(argv))
+
+
+def model_arguments(args: argparse.Namespace) -> tuple[ModelPlugin, argparse.Namespace]:
+    """Parse the command line again with the chosen model's options only (:func:`parse_train_arguments`)."""
+    return parse_train_arguments(args.model, args.argv[1:])
 
 
 def run(args: argparse.Namespace) -> int:

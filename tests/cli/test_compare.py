@@ -22,6 +22,7 @@ import pytest
 import neurovpr as nv
 from neurovpr import compare, modelapi
 from neurovpr.cli import compare_cmd
+from neurovpr.cli.train_cmd import parse_train_arguments
 from neurovpr.data.generic import open_traverse, write_generic
 from neurovpr.data.synthetic import synthetic_traverse
 from neurovpr.errors import NeurovprError
@@ -300,15 +301,7 @@ def test_agreement_and_correlation_arithmetic():
 # -- the real models -----------------------------------------------------------------------------
 def _train_args(plugin: modelapi.ModelPlugin, data: Path, out: Path, extra: list[str]) -> argparse.Namespace:
     """``neurovpr train`` arguments for ``plugin`` (its own options at their defaults, then ``extra``)."""
-    p = argparse.ArgumentParser()
-    p.add_argument("--data", type=Path)
-    p.add_argument("--out", type=Path)
-    p.add_argument("--backend", default="reference")
-    p.add_argument("--seed", type=int, default=0)
-    p.add_argument("--resume", action="store_true")
-    p.add_argument("--scheduler", default=None)
-    plugin.add_train_arguments(p)
-    return p.parse_args(["--data", str(data), "--out", str(out), *extra])
+    return parse_train_arguments(plugin, ["--model", plugin.name, "--data", str(data), "--out", str(out), *extra])[1]
 
 
 def test_locsnet_converted_network_on_loihi_emulators(dataset: Path, tmp_path: Path):
