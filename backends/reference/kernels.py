@@ -20,8 +20,12 @@ spikes are then handled in increasing neuron index, as a neuron-by-neuron loop w
 summed per (receptor, ring slot, neuron): a spike adds each of its static segments (one
 delay and receptor, see :func:`.translation.static_delivery`) into one buffer row and
 marks the blocks of neurons the segment reaches, so that delivery visits marked blocks
-only. Within a buffer entry the contributions keep the order of a synapse-by-synapse
-loop, so the sums are the same bit for bit. Pair STDP is
+only. Convolutions are delivered from their kernel (:mod:`.convolution`): a spike's
+targets and weights are computed from its position, and the buffer row records the range
+of neurons reached. Within a buffer entry the contributions keep the order of a
+synapse-by-synapse loop, so the sums are the same bit for bit. The spikes of a step are
+gathered first, so that the synapses of a spike a few places ahead are prefetched while
+one is delivered. Pair STDP is
 all-to-all with traces that jump by 1 (set to 1 for Diehl & Cook); all synapses of a
 segment (one presynaptic neuron, projection and delay) see the same arrivals, so
 their presynaptic trace is held once per segment (``seg_xpre``, decayed lazily from
@@ -42,8 +46,22 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .convolution import (
+    CV_DELAY,
+    CV_KH,
+    CV_KW,
+    CV_O,
+    CV_OH,
+    CV_OW,
+    CV_POST0,
+    CV_REC,
+    CV_SH,
+    CV_SW,
+    CV_WOFF,
+)
 from .prefetch import prefetch
 from .translation import (
+    BLOCK_SHIFT,
     C_CM,
     C_E_REV_E,
     C_E_REV_I,
@@ -89,6 +107,9 @@ from .translation import (
 )
 
 NEVER = np.int64(2**62)
+# How many spikes ahead, and how many of their first static synapses, are prefetched.
+WARM_AHEAD = 16
+WARM_SYNAPSES = 128
 
 # Indices of the activity counters.
 ST_STEPS, ST_NEURON_UPDATES, ST_SPIKES, ST_SYN_EVENTS, ST_PLASTIC_UPDATES = range(5)
@@ -404,9 +425,56 @@ def decay_post_traces(rules, tr_lo, tr_hi, post_decay1, post_decay2, xpost1, xpo
 
 # -- the step loop ------------------------------------------------------------
 @njit(cache=True, inline="always", _nrt=False)
+def warm(i, d_seg_ptr, d_seg_start, d_post, d_w):  # fmt: skip
+    """Prefetch the first synapses of neuron ``i``'s static segments (a hint: no effect on results).
+
+    The segments of successive spikes lie apart, so the hardware prefetcher starts on
+    each late; a spike's targets and weights are requested a few spikes ahead.
+    """
+    for g in range(d_seg_ptr[i], d_seg_ptr[i + 1]):
+        lo, hi = np.uint64(d_seg_start[g]), np.uint64(d_seg_start[g + 1])
+        for q in range(lo, min(hi, lo + np.uint64(WARM_SYNAPSES)), np.uint64(8)):
+            prefetch(d_w, q)
+            prefetch(d_post, q)
+
+
+@njit(cache=True, inline="always", _nrt=False)
+def convolve(k, at, cv_index, cv_par, cv_w, buf, row_any, row_range, ring, width):  # fmt: skip
+    """Schedule a spike through the structured convolution entry at ``cv_index[k:k + 3]``; return the synapses reached.
+
+    For every output position whose receptive field holds the neuron, all output
+    channels receive the kernel's weights for that field position (see
+    :mod:`.convolution`, whose ``geometry`` packs the neuron's position and reach). The
+    buffer row's range of touched neurons grows to the whole output population.
+    """
+    p, a, b = cv_index[k], cv_index[k + 1], cv_index[k + 2]
+    n = 0
+    o, ow, kh, kw = cv_par[p, CV_O], cv_par[p, CV_OW], cv_par[p, CV_KH], cv_par[p, CV_KW]
+    sh, sw, post0, plane = cv_par[p, CV_SH], cv_par[p, CV_SW], cv_par[p, CV_POST0], cv_par[p, CV_OH] * ow
+    c, yy, xx = a & 0xFFFFF, (a >> 20) & 0xFFFFF, a >> 40
+    oy_lo, oy_end, ox_lo, ox_end = b & 0xFFFF, (b >> 16) & 0xFFFF, (b >> 32) & 0xFFFF, b >> 48
+    due = at + cv_par[p, CV_DELAY]  # a delay is shorter than the ring: no division needed
+    row = cv_par[p, CV_REC] * ring + (due - ring if due >= ring else due)
+    row_any[row] = True
+    row_range[0, row] = min(row_range[0, row], post0)
+    row_range[1, row] = max(row_range[1, row], post0 + o * plane)
+    base = row * width + post0
+    w0 = cv_par[p, CV_WOFF] + c * kh * kw * o
+    for oy in range(oy_lo, oy_end):
+        for ox in range(ox_lo, ox_end):
+            wb = w0 + ((yy - oy * sh) * kw + xx - ox * sw) * o
+            pb = base + oy * ow + ox
+            for oc in range(o):
+                buf[np.uint64(pb + oc * plane)] += cv_w[np.uint64(wb + oc)]
+            n += o
+    return n
+
+
+@njit(cache=True, inline="always", _nrt=False)
 def emit(
-    i, stamp, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg_delay, d_seg_rec, d_post, d_w,
-    d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay, ev, ev_n, stats,
+    i, stamp, at, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg_delay, d_seg_rec,
+    d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay, ev, ev_n, stats, cv_index, cv_par,
+    cv_w, row_range,
 ):  # fmt: skip
     """Record the spike of neuron ``i`` at step ``stamp`` and schedule its arrivals.
 
@@ -422,10 +490,10 @@ def emit(
         rec_i[n] = i
         rec_n[0] = n + 1
     ring = ev_n.size
-    width = buf.size // row_any.size
-    n_blocks = dirty.size // row_any.size
+    n_blocks = width >> BLOCK_SHIFT
     for g in range(d_seg_ptr[i], d_seg_ptr[i + 1]):
-        row = d_seg_rec[g] * ring + (stamp + d_seg_delay[g]) % ring
+        due = at + d_seg_delay[g]  # a delay is shorter than the ring: no division needed
+        row = d_seg_rec[g] * ring + (due - ring if due >= ring else due)
         row_any[row] = True
         base = np.uint64(row * width)  # unsigned indices: no negative-index wrap
         for k in range(np.uint64(d_seg_start[g]), np.uint64(d_seg_start[g + 1])):
@@ -434,18 +502,23 @@ def emit(
         for b in range(np.uint64(d_blk_ptr[g]), np.uint64(d_blk_ptr[g + 1])):
             dirty[marks + d_blk[b]] = True
     stats[ST_SYN_EVENTS] += d_seg_start[d_seg_ptr[i + 1]] - d_seg_start[d_seg_ptr[i]]
+    first = counts.size + 1  # cv_index: pointers, then entries of three values
+    for e in range(cv_index[i], cv_index[i + 1]):
+        stats[ST_SYN_EVENTS] += convolve(first + 3 * e, at, cv_index, cv_par, cv_w, buf, row_any, row_range, ring, width)
     for g in range(row_seg_ptr[i], row_seg_ptr[i + 1]):
-        slot = (stamp + seg_delay[g]) % ring
-        ev[slot, ev_n[slot]] = g
-        ev_n[slot] += 1
+        due = at + seg_delay[g]
+        due = due - ring if due >= ring else due
+        ev[due, ev_n[due]] = g
+        ev_n[due] += 1
 
 
 @njit(cache=True, inline="always", _nrt=False)
-def deliver_static(slot, ring, n, buf, dirty, dirty_words, row_any, isyn):  # fmt: skip
-    """Add the static arrivals of ring slot ``slot`` to ``isyn`` and clear them, block by marked block.
+def deliver_static(slot, ring, n, buf, dirty, dirty_words, row_any, isyn, row_range):  # fmt: skip
+    """Add the static arrivals of ring slot ``slot`` to ``isyn`` and clear them.
 
-    An entry that is exactly 0 leaves its synaptic state as it is (adding +0.0 would
-    turn a -0.0 into +0.0).
+    First the row's range of neurons reached by structured convolutions, then the
+    marked blocks (entries the range has cleared add nothing). An entry that is exactly
+    0 leaves its synaptic state as it is (adding +0.0 would turn a -0.0 into +0.0).
     """
     width = buf.size // row_any.size
     n_blocks = dirty.size // row_any.size
@@ -455,6 +528,14 @@ def deliver_static(slot, ring, n, buf, dirty, dirty_words, row_any, isyn):  # fm
         if not row_any[row]:
             continue
         row_any[row] = False
+        if row_range[0, row] < row_range[1, row]:
+            base = np.uint64(row * width)
+            for q in range(np.uint64(row_range[0, row]), np.uint64(row_range[1, row])):
+                x = buf[base + q]
+                s = isyn[r, q]
+                isyn[r, q] = s + x if x != 0.0 else s
+                buf[base + q] = 0.0
+            row_range[0, row], row_range[1, row] = n, 0
         marks = row * n_blocks
         for word in range(marks >> 3, (marks + n_blocks) >> 3):
             if dirty_words[word] == 0:
@@ -479,7 +560,8 @@ def run_steps(
     post_ptr, post_syn, post_seg, post_rule, proj_inh, tr_lo, tr_hi, tr_shift, post_tr_ptr, post_tr_idx, trace_proj,
     rules, pre_table, post_decay1, post_decay2, xpost1, xpost2, x_pre, ev, ev_n,
     pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng,
-    rec_mask, rec_t, rec_i, rec_n, headroom, var_idx, var_code, var_out, stats,
+    rec_mask, rec_t, rec_i, rec_n, headroom, var_idx, var_code, var_out, stats, spk, cv_index, cv_par, cv_w,
+    row_range,
 ):  # fmt: skip
     """Advance from step ``j0`` to ``j1`` (exclusive); return the step reached.
 
@@ -492,28 +574,38 @@ def run_steps(
     ring = ev_n.size
     n = v.size
     cap = rec_t.size
+    width = buf.size // row_any.size
     for j in range(j0, j1):
         if rec_n[0] + headroom > cap:
             return j
         slot = j % ring
+        after = slot + 1 if slot + 1 < ring else 0  # the slot of step j + 1
         # 1. sources
+        m = 0
         for k in range(pois_idx.size):
             if pois_next[k] == j:
                 i = pois_idx[k]
                 if pois_start[k] <= j < pois_end[k]:
-                    emit(i, j, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg_delay, d_seg_rec,
-                         d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay, ev, ev_n,
-                         stats)  # fmt: skip
+                    spk[m] = i
+                    m += 1
+                    if m <= WARM_AHEAD:
+                        warm(i, d_seg_ptr, d_seg_start, d_post, d_w)
                 g = geometric_gap(rng, pois_logq[k])
                 pois_next[k] = NEVER if g == NEVER else j + 1 + g
             elif pois_next[k] < j:  # window change or redraw in the past: draw forward
                 g = geometric_gap(rng, pois_logq[k])
                 pois_next[k] = NEVER if g == NEVER else j + g
+        for e in range(m):
+            if e + WARM_AHEAD < m:
+                warm(spk[e + WARM_AHEAD], d_seg_ptr, d_seg_start, d_post, d_w)
+            emit(spk[e], j, slot, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg_delay, d_seg_rec,
+                 d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay, ev, ev_n,
+                 stats, cv_index, cv_par, cv_w, row_range)  # fmt: skip
         while arr_ptr[0] < arr_step.size and arr_step[arr_ptr[0]] <= j:
             if arr_step[arr_ptr[0]] == j:
-                emit(arr_neuron[arr_ptr[0]], j, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start,
+                emit(arr_neuron[arr_ptr[0]], j, slot, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start,
                      d_seg_delay, d_seg_rec, d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr,
-                     seg_delay, ev, ev_n, stats)  # fmt: skip
+                     seg_delay, ev, ev_n, stats, cv_index, cv_par, cv_w, row_range)  # fmt: skip
             arr_ptr[0] += 1
         # 2. arrivals at plastic synapses (post traces hold their value at time j)
         for e in range(ev_n[slot]):
@@ -527,7 +619,7 @@ def run_steps(
         # postsynaptic traces advance to the end of the step
         decay_post_traces(rules, tr_lo, tr_hi, post_decay1, post_decay2, xpost1, xpost2)
         # static arrivals
-        deliver_static(slot, ring, n, buf, dirty, dirty_words, row_any, isyn)
+        deliver_static(slot, ring, n, buf, dirty, dirty_words, row_any, isyn, row_range)
         # 3. neurons, group by group; then each group's spikes in increasing index
         stats[ST_NEURON_UPDATES] += n_updated
         for grp in range(groups.shape[0]):
@@ -537,26 +629,34 @@ def run_steps(
             else:
                 n_spikes = update_cond(lo, hi, flags, params, dt, plastic_on, v, ie, ii, theta, refr, flag)
             word = lo >> 3
-            while n_spikes > 0:
+            m = 0
+            while m < n_spikes:
                 if flag_words[word] != 0:
                     for i in range(word << 3, (word << 3) + 8):
                         if flag[i]:
                             flag[i] = False
-                            n_spikes -= 1
-                            v[i] = params[lo, C_V_RESET]
-                            refr[i] = np.int64(params[lo, C_REFRAC])
-                            ica[i] += params[lo, C_I_ALPHA]
-                            if plastic_on:
-                                theta[i] += params[lo, C_THETA_PLUS]
-                                stats[ST_PLASTIC_UPDATES] += potentiate(
-                                    i, j + 1, dt, post_ptr, post_syn, post_seg, post_rule, seg_proj, seg_xpre, seg_last,
-                                    p_w, rules, pre_table, tr_shift, xpost2, x_pre,
-                                )  # fmt: skip
-                            post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2)
-                            emit(i, j + 1, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg_delay,
-                                 d_seg_rec, d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay,
-                                 ev, ev_n, stats)  # fmt: skip
+                            spk[m] = i
+                            m += 1
+                            if m <= WARM_AHEAD:
+                                warm(i, d_seg_ptr, d_seg_start, d_post, d_w)
                 word += 1
+            for e in range(m):
+                if e + WARM_AHEAD < m:
+                    warm(spk[e + WARM_AHEAD], d_seg_ptr, d_seg_start, d_post, d_w)
+                i = spk[e]
+                v[i] = params[lo, C_V_RESET]
+                refr[i] = np.int64(params[lo, C_REFRAC])
+                ica[i] += params[lo, C_I_ALPHA]
+                if plastic_on:
+                    theta[i] += params[lo, C_THETA_PLUS]
+                    stats[ST_PLASTIC_UPDATES] += potentiate(
+                        i, j + 1, dt, post_ptr, post_syn, post_seg, post_rule, seg_proj, seg_xpre, seg_last,
+                        p_w, rules, pre_table, tr_shift, xpost2, x_pre,
+                    )  # fmt: skip
+                post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2)
+                emit(i, j + 1, after, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg_delay,
+                     d_seg_rec, d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay,
+                     ev, ev_n, stats, cv_index, cv_par, cv_w, row_range)  # fmt: skip
         # 4. state recording
         if var_idx.size:
             row = j - j0

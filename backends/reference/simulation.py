@@ -14,7 +14,8 @@ from neurovpr.network import Network
 from neurovpr.simulation import Simulation
 
 from . import kernels
-from .translation import BLOCK_SHIFT, C_I_CA_INIT, C_V_INIT, KIND_POISSON, VAR_CODES, build_layout
+from .convolution import CV_WOFF
+from .translation import BLOCK_SHIFT, C_I_CA_INIT, C_V_INIT, KIND_POISSON, VAR_CODES, build_layout, split_static
 
 _PAST = -(2**40)
 
@@ -110,8 +111,12 @@ class ReferenceSimulation(Simulation):
             self._dirty = np.zeros(2 * lay.ring * n_blocks, dtype=np.bool_)
             self._dirty_words = self._dirty.view(np.uint64)
             self._row_any = np.zeros(2 * lay.ring, dtype=np.bool_)
+            # per row, the range of neurons structured convolutions have reached (empty: n, 0)
+            self._row_range = np.zeros((2, 2 * lay.ring), dtype=np.int64)
+            self._row_range[0] = n
             self._flag = np.zeros(-(-n // 8) * 8, dtype=np.bool_)
             self._flag_words = self._flag.view(np.uint64)
+            self._spk = np.zeros(max(n, 1), dtype=np.int64)  # scratch: the neurons spiking in one group or step
             self._seg_xpre = np.zeros(n_seg)
             self._seg_last = np.full(n_seg, _PAST, dtype=np.int64)
             self._xpost1 = np.zeros(lay.n_traces)
@@ -128,6 +133,8 @@ class ReferenceSimulation(Simulation):
                 self._buf.fill(0.0)
                 self._dirty.fill(False)
                 self._row_any.fill(False)
+                self._row_range[0] = n
+                self._row_range[1] = 0
             self._flag.fill(False)
             self._seg_xpre.fill(0.0)
             self._seg_last.fill(_PAST)
@@ -218,7 +225,8 @@ class ReferenceSimulation(Simulation):
                 self._pois_idx, self._pois_logq, self._pois_next, self._pois_start, self._pois_end,
                 self._arr_step, self._arr_neuron, self._arr_ptr, self._rng,
                 self._rec_mask, self._rec_t, self._rec_i, self._rec_n, self._headroom,
-                self._var_idx, self._var_code, var_out[j - j0 :], self._stats,
+                self._var_idx, self._var_code, var_out[j - j0 :], self._stats, self._spk, lay.cv_index,
+                lay.cv_par, lay.cv_w, self._row_range,
             )  # fmt: skip
             self._flush_spikes()
             j = reached
@@ -257,9 +265,7 @@ class ReferenceSimulation(Simulation):
     def _spike_trains(self, population: str) -> tuple[np.ndarray, np.ndarray]:
         lo, hi = self._lay.offsets[population]
         if not self._rec_mask[lo]:
-            raise ValidationError(
-                f"spike_trains: population {population!r} was left out of record_spikes at compile time."
-            )
+            raise ValidationError(f"spike_trains: population {population!r} was left out of record_spikes at compile time.")
         if not self._spike_chunks:
             return np.zeros(0), np.zeros(0, dtype=np.int64)
         t = np.concatenate([c[0] for c in self._spike_chunks])
@@ -295,7 +301,21 @@ class ReferenceSimulation(Simulation):
         store, pos = self._weight_store(projection)
         store[pos] = values
         lay = self._lay
-        if store is lay.s_w and lay.d_w is not lay.s_w:
+        if store is not lay.s_w:
+            return
+        owner = [p for p, spec in enumerate(lay.conv_specs) if projection in spec.names]
+        if owner:
+            spec = lay.conv_specs[owner[0]]
+            kernel = spec.kernel([lay.s_w[lay.proj_static[name]] for name in spec.names])
+            if kernel is not None:
+                woff = lay.cv_par[owner[0], CV_WOFF]
+                lay.cv_w[woff : woff + kernel.size] = kernel
+            else:  # the weights no longer share a kernel: the convolution goes the generic way
+                specs = [other for other in lay.conv_specs if other is not spec]
+                for key, value in split_static(lay.n, lay.s_ptr, lay.s_post, lay.s_w, lay.s_delay, lay.s_inh, specs,
+                                               lay.proj_static).items():  # fmt: skip
+                    setattr(lay, key, value)
+        elif lay.d_w is not lay.s_w:
             lay.d_w[lay.d_of_s[pos]] = values
 
     def _learned_state(self, population: str) -> dict[str, np.ndarray]:

@@ -27,8 +27,11 @@ from neurovpr.cells import (
     SpikeSourcePoisson,
 )
 from neurovpr.connectivity import expand
+from neurovpr.connectors import ConvolutionConnector
 from neurovpr.network import Network
 from neurovpr.synapses import DiehlCookSTDP, MultiplicativeWeightDependence, STDPMechanism
+
+from .convolution import ConvSpec, conv_spec, conv_tables, merge
 
 # Neuron kinds.
 KIND_CURR, KIND_COND, KIND_POISSON, KIND_ARRAY = 0, 1, 2, 3
@@ -200,6 +203,11 @@ class Layout:
     d_blk_ptr: np.ndarray
     d_blk: np.ndarray
     n_blocks: int
+    # structured convolutions (see .convolution): per pre neuron its projections, their parameters, kernels
+    conv_specs: list[ConvSpec]
+    cv_index: np.ndarray
+    cv_par: np.ndarray
+    cv_w: np.ndarray
     # plastic synapses, CSR by global pre split into equal-delay segments of one projection
     row_seg_ptr: np.ndarray
     seg_start: np.ndarray
@@ -263,10 +271,16 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
     n_traces = 0
     proj_inh, tr_lo, tr_hi, tr_shift = [], [], [], []
     static_names, plastic_names = [], []
+    specs: list[ConvSpec] = []
     for proj in network.projections.values():
         conns = expand(network, proj, dt=dt, seed=seed)
         pre0, post0 = offsets[proj.pre][0], offsets[proj.post][0]
         steps = np.maximum(1, np.rint(conns.delay / dt)).astype(np.int64)
+        if not proj.plastic and isinstance(proj.connector, ConvolutionConnector):
+            spec = conv_spec(proj.name, proj.connector, conns.pre, conns.post, conns.weight, steps, (pre0, post0),
+                             proj.receptor_type == "inhibitory")  # fmt: skip
+            if spec is not None:
+                specs.append(spec)
         proj_pre[proj.name], proj_post[proj.name] = conns.pre, conns.post
         inh = np.full(len(conns), proj.receptor_type == "inhibitory")
         target = pl if proj.plastic else st
@@ -338,7 +352,7 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
     s_w = cat(st["w"], np.float64)[order]
     s_delay = cat(st["d"], np.int64)[order]
     s_inh = cat(st["inh"], np.bool_)[order]
-    delivery = static_delivery(n, s_ptr, s_post, s_w, s_delay, s_inh)
+    delivery = split_static(n, s_ptr, s_post, s_w, s_delay, s_inh, merge(specs), proj_static)
     all_d = np.concatenate([cat(st["d"], np.int64), p_d, [1]])
     rule_table = np.ascontiguousarray(np.array(rules).reshape(-1, N_RULE_COLS))
     tr_rule = cat(trace_proj, np.int64)
@@ -389,6 +403,37 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
         proj_pre=proj_pre,
         proj_post=proj_post,
     )
+
+
+def split_static(
+    n: int,
+    s_ptr: np.ndarray,
+    s_post: np.ndarray,
+    s_w: np.ndarray,
+    s_delay: np.ndarray,
+    s_inh: np.ndarray,
+    specs: list[ConvSpec],
+    proj_static: dict[str, np.ndarray],
+) -> dict[str, object]:
+    """The static synapses of the structured convolutions ``specs`` as kernels, all others in delivery order.
+
+    Returns the ``d_*`` and ``cv_*`` fields of :class:`Layout` and ``conv_specs``;
+    ``d_of_s`` is -1 at the CSR positions of structured synapses.
+    """
+    keep = np.ones(s_post.size, dtype=bool)
+    for spec in specs:
+        for name in spec.names:
+            keep[proj_static[name]] = False
+    if keep.all():
+        out = static_delivery(n, s_ptr, s_post, s_w, s_delay, s_inh)
+    else:
+        pre = np.repeat(np.arange(n, dtype=np.int64), np.diff(s_ptr))[keep]
+        ptr = np.concatenate([[0], np.cumsum(np.bincount(pre, minlength=n))]).astype(np.int64)
+        out = static_delivery(n, ptr, s_post[keep], s_w[keep], s_delay[keep], s_inh[keep])
+        d_of_s = np.full(s_post.size, -1, dtype=np.int64)
+        d_of_s[keep] = out["d_of_s"]
+        out["d_of_s"] = d_of_s
+    return {**out, **conv_tables(specs, n, s_w, proj_static), "conv_specs": list(specs)}
 
 
 def static_delivery(
