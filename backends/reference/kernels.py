@@ -472,7 +472,7 @@ def convolve(k, at, cv_index, cv_par, cv_w, buf, row_any, row_range, ring, width
 
 @njit(cache=True, inline="always", _nrt=False)
 def emit(
-    i, stamp, at, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg_delay, d_seg_rec,
+    i, stamp, at, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg,
     d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay, ev, ev_n, stats, cv_index, cv_par,
     cv_w, row_range,
 ):  # fmt: skip
@@ -492,12 +492,18 @@ def emit(
     ring = ev_n.size
     n_blocks = width >> BLOCK_SHIFT
     for g in range(d_seg_ptr[i], d_seg_ptr[i + 1]):
-        due = at + d_seg_delay[g]  # a delay is shorter than the ring: no division needed
-        row = d_seg_rec[g] * ring + (due - ring if due >= ring else due)
+        due = at + d_seg[g, 0]  # a delay is shorter than the ring: no division needed
+        row = d_seg[g, 1] * ring + (due - ring if due >= ring else due)
         row_any[row] = True
         base = np.uint64(row * width)  # unsigned indices: no negative-index wrap
-        for k in range(np.uint64(d_seg_start[g]), np.uint64(d_seg_start[g + 1])):
-            buf[base + d_post[k]] += d_w[k]
+        lo, hi = np.uint64(d_seg_start[g]), np.uint64(d_seg_start[g + 1])
+        if d_seg[g, 2] >= 0:  # consecutive targets: a slice of the row, no target look-ups
+            dst = base + np.uint64(d_seg[g, 2]) - lo
+            for k in range(lo, hi):
+                buf[dst + k] += d_w[k]
+        else:
+            for k in range(lo, hi):
+                buf[base + d_post[k]] += d_w[k]
         marks = np.uint64(row * n_blocks)
         for b in range(np.uint64(d_blk_ptr[g]), np.uint64(d_blk_ptr[g + 1])):
             dirty[marks + d_blk[b]] = True
@@ -555,7 +561,7 @@ def deliver_static(slot, ring, n, buf, dirty, dirty_words, row_any, isyn, row_ra
 @njit(cache=True, _nrt=False)
 def run_steps(
     j0, j1, dt, plastic_on, groups, n_updated, params, v, isyn, ie, ii, theta, ica, refr, flag, flag_words, counts,
-    buf, dirty, dirty_words, row_any, d_seg_ptr, d_seg_start, d_seg_delay, d_seg_rec, d_post, d_w, d_blk_ptr, d_blk,
+    buf, dirty, dirty_words, row_any, d_seg_ptr, d_seg_start, d_seg, d_post, d_w, d_blk_ptr, d_blk,
     row_seg_ptr, seg_start, seg_delay, seg_proj, p_post, p_w, seg_xpre, seg_last,
     post_ptr, post_syn, post_seg, post_rule, proj_inh, tr_lo, tr_hi, tr_shift, post_tr_ptr, post_tr_idx, trace_proj,
     rules, pre_table, post_decay1, post_decay2, xpost1, xpost2, x_pre, ev, ev_n,
@@ -598,13 +604,13 @@ def run_steps(
         for e in range(m):
             if e + WARM_AHEAD < m:
                 warm(spk[e + WARM_AHEAD], d_seg_ptr, d_seg_start, d_post, d_w)
-            emit(spk[e], j, slot, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg_delay, d_seg_rec,
+            emit(spk[e], j, slot, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg,
                  d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay, ev, ev_n,
                  stats, cv_index, cv_par, cv_w, row_range)  # fmt: skip
         while arr_ptr[0] < arr_step.size and arr_step[arr_ptr[0]] <= j:
             if arr_step[arr_ptr[0]] == j:
                 emit(arr_neuron[arr_ptr[0]], j, slot, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start,
-                     d_seg_delay, d_seg_rec, d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr,
+                     d_seg, d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr,
                      seg_delay, ev, ev_n, stats, cv_index, cv_par, cv_w, row_range)  # fmt: skip
             arr_ptr[0] += 1
         # 2. arrivals at plastic synapses (post traces hold their value at time j)
@@ -654,8 +660,8 @@ def run_steps(
                         p_w, rules, pre_table, tr_shift, xpost2, x_pre,
                     )  # fmt: skip
                 post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2)
-                emit(i, j + 1, after, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg_delay,
-                     d_seg_rec, d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay,
+                emit(i, j + 1, after, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg,
+                     d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay,
                      ev, ev_n, stats, cv_index, cv_par, cv_w, row_range)  # fmt: skip
         # 4. state recording
         if var_idx.size:

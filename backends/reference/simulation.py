@@ -99,10 +99,11 @@ class ReferenceSimulation(Simulation):
         self._step = 0
         n_seg = lay.seg_delay.size
         if not hasattr(self, "_buf"):
-            self._v = lay.params[:, C_V_INIT].copy()
+            self._v_init, self._ica_init = lay.params[:, C_V_INIT].copy(), lay.params[:, C_I_CA_INIT].copy()
+            self._v = self._v_init.copy()
             self._isyn = np.zeros((2, n))
             self._ie, self._ii = self._isyn[0], self._isyn[1]
-            self._ica = lay.params[:, C_I_CA_INIT].copy()
+            self._ica = self._ica_init.copy()
             self._refr = np.zeros(n, dtype=np.int64)
             self._counts = np.zeros(n, dtype=np.int64)
             # static ring buffer: rows (receptor, slot) of whole 64-bit words of block marks
@@ -124,17 +125,18 @@ class ReferenceSimulation(Simulation):
             self._ev_n = np.zeros(lay.ring, dtype=np.int64)
             self._rec_n = np.zeros(1, dtype=np.int64)
         else:
-            self._v[:] = lay.params[:, C_V_INIT]
+            self._v[:] = self._v_init
             self._isyn.fill(0.0)
-            self._ica[:] = lay.params[:, C_I_CA_INIT]
+            self._ica[:] = self._ica_init
             self._refr.fill(0)
             self._counts.fill(0)
-            if self._row_any.any():  # arrivals still pending: only marked rows hold non-zero entries
-                self._buf.fill(0.0)
-                self._dirty.fill(False)
-                self._row_any.fill(False)
-                self._row_range[0] = n
-                self._row_range[1] = 0
+            width, marks = self._buf.size // self._row_any.size, self._dirty.size // self._row_any.size
+            for row in np.flatnonzero(self._row_any):  # arrivals still pending: only marked rows hold non-zero entries
+                self._buf[row * width : (row + 1) * width] = 0.0
+                self._dirty[row * marks : (row + 1) * marks] = False
+            self._row_any.fill(False)
+            self._row_range[0] = n
+            self._row_range[1] = 0
             self._flag.fill(False)
             self._seg_xpre.fill(0.0)
             self._seg_last.fill(_PAST)
@@ -215,7 +217,7 @@ class ReferenceSimulation(Simulation):
                 j, j1, self._dt, self._plastic, lay.groups, lay.n_updated, lay.params, self._v, self._isyn,
                 self._ie, self._ii, self._theta, self._ica, self._refr, self._flag, self._flag_words, self._counts,
                 self._buf, self._dirty, self._dirty_words, self._row_any, lay.d_seg_ptr, lay.d_seg_start,
-                lay.d_seg_delay, lay.d_seg_rec, lay.d_post, lay.d_w, lay.d_blk_ptr, lay.d_blk,
+                lay.d_seg, lay.d_post, lay.d_w, lay.d_blk_ptr, lay.d_blk,
                 lay.row_seg_ptr, lay.seg_start, lay.seg_delay, lay.seg_proj, lay.p_post, lay.p_w,
                 self._seg_xpre, self._seg_last, lay.post_ptr, lay.post_syn, lay.post_seg, lay.post_rule,
                 lay.proj_inh,

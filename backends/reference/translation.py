@@ -195,8 +195,7 @@ class Layout:
     # d_of_s: position in delivery order of each CSR position (d_w is s_w when the orders agree)
     d_seg_ptr: np.ndarray
     d_seg_start: np.ndarray
-    d_seg_delay: np.ndarray
-    d_seg_rec: np.ndarray
+    d_seg: np.ndarray
     d_post: np.ndarray
     d_w: np.ndarray
     d_of_s: np.ndarray
@@ -445,6 +444,9 @@ def static_delivery(
     ring-buffer entry (slot, receptor, neuron) keep their order, so the sums are the same
     bit for bit. A spike then adds each segment's weights into one buffer row without
     per-synapse delay or receptor look-ups, and marks the segment's blocks of neurons.
+    ``d_seg`` holds per segment its delay, receptor and, when its targets are consecutive
+    neurons (a dense row), the first of them (else -1): the kernels then add the weights
+    to a slice of the row without reading the targets.
     """
     m = s_post.size
     pre = np.repeat(np.arange(n, dtype=np.int64), np.diff(s_ptr))
@@ -461,11 +463,14 @@ def static_delivery(
     seg_of = np.repeat(np.arange(first.size, dtype=np.int64), np.diff(np.append(first, m)))
     blocks = np.unique(seg_of * n_blocks + (post_d >> BLOCK_SHIFT))
     blk_ptr = np.concatenate([[0], np.cumsum(np.bincount(blocks // n_blocks, minlength=first.size))])
+    step = np.diff(post_d) == 1  # step[k]: synapse k + 1 targets the neuron after synapse k's
+    breaks = np.concatenate([[0], np.cumsum(~step)])  # broken steps before each synapse
+    last = np.append(first[1:], m) - 1
+    run = np.where(breaks[last] == breaks[first], post_d[first] if m else first, -1)
     return {
         "d_seg_ptr": np.concatenate([[0], np.cumsum(np.bincount(pre_d[first], minlength=n))]).astype(np.int64),
         "d_seg_start": np.append(first, m).astype(np.int64),
-        "d_seg_delay": delay_d[first].astype(np.int64),
-        "d_seg_rec": rec_d[first].astype(np.int64),
+        "d_seg": np.ascontiguousarray(np.stack([delay_d[first], rec_d[first], run], axis=1).astype(np.int64)),
         "d_post": post_d.astype(np.uint32) if n < 2**32 else post_d,
         "d_w": s_w if same else s_w[order],
         "d_of_s": d_of_s,

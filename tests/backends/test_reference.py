@@ -79,17 +79,16 @@ def _listed(net: nv.Network, pre: str, post: str, conn: nv.ConvolutionConnector,
 
 def _run(net: nv.Network, steps_ms: float = 60.0, weights: dict | None = None) -> tuple[nv.Simulation, list]:
     sim = nv.compile(net, backend="reference", dt=0.5, seed=3)
-    for pop in net.populations:
-        if pop != "img":
-            sim.record(pop, "v")
+    neurons = [p for p, pop in net.populations.items() if not isinstance(pop.cell_type, nv.SpikeSourcePoisson)]
+    for pop in neurons:
+        sim.record(pop, "v")
     sim.run(steps_ms / 2)
     for name, values in (weights or {}).items():
         sim.set_weights(name, values(sim.weights(name, format="list")))
     sim.run(steps_ms / 2)
     out = []
-    for pop in net.populations:
-        if pop != "img":
-            out += [sim.spike_trains(pop), sim.trace(pop, "v")[1]]
+    for pop in neurons:
+        out += [sim.spike_trains(pop), sim.trace(pop, "v")[1]]
     return sim, out
 
 
@@ -138,3 +137,25 @@ def test_setting_weights_keeps_results_exact(per_synapse: bool) -> None:
     assert ("img->fm1" in structured) is not per_synapse
     rng = np.random.default_rng(5)
     _assert_same(got, _run(listed, weights={"img->fm1": change})[1])
+
+
+def test_dense_rows_match_shuffled_synapse_list() -> None:
+    """A row of consecutive targets is added as a slice; the same synapses in shuffled order go one by one."""
+    rng = np.random.default_rng(7)
+    weights = rng.uniform(-1.0, 2.5, size=(40, 30))
+    pre, post = np.meshgrid(np.arange(40), np.arange(30), indexing="ij")
+    listing = np.column_stack([pre.ravel(), post.ravel(), weights.ravel()])[rng.permutation(pre.size)]
+    results, runs = [], []
+    for connector, synapse in (
+        (nv.AllToAllConnector(), nv.StaticSynapse(weight=weights, delay=1.5)),
+        (nv.FromListConnector(conn_list=listing), nv.StaticSynapse(delay=1.5)),
+    ):
+        net = nv.Network("dense")
+        net.add_population("src", 40, nv.SpikeSourcePoisson(rate=80.0))
+        net.add_population("dst", 30, nv.IF_curr_exp(tau_m=10.0, v_thresh=-62.0, i_offset=0.2))
+        net.connect("src", "dst", connector, synapse)
+        sim, out = _run(net)
+        runs.append(sim._lay.d_seg[:, 2])
+        results.append(out)
+    assert np.all(runs[0] >= 0) and np.all(runs[1] == -1)
+    _assert_same(results[0], results[1])
