@@ -154,14 +154,18 @@ def evaluate_variant(
 
     run, queries, reference, gt = _inputs(run_dir, data)
     rates = rate_forward(run.arch, run.params, queries)["places"].T
+    # the training images themselves (reference image i is place i): how well the places are learned
+    seen = _metrics(rate_forward(run.arch, run.params, reference)["places"].T, gt)
     if previous is not None:
         out = dict(previous)
         out.pop("subset", None)  # the layout of an earlier version of this script
+        out["rate_model_training_images"] = seen
         out.setdefault("backends", {}).update(
             _slow_backends(run_dir, data, rates, gt, None, slow_queries, timeout, backends))
         return out
     out = {"training": run.info.get("timing"), "history_last": run.info["history"][-1]}
     out["rate_model"] = _metrics(rates, gt)
+    out["rate_model_training_images"] = seen
     out["SAD"] = score(sad_place_distances(reference, queries, run.labels), gt)[0]
     clf = SpikingClassifier(run.network, run.arch, run.spiking, seed=0)
     res = clf.run(queries, progress=True, desc="all queries")
@@ -230,7 +234,8 @@ def main(argv: list[str] | None = None) -> int:
     for variant, r in results.items():
         print(f"\n{variant}: rate model P@100R {r['rate_model']['P@100R']:.3f} AUC {r['rate_model']['AUC_PR']:.3f}; "
               f"reference (all {r['reference']['queries']}) P@100R {r['reference']['metrics']['P@100R']:.3f} "
-              f"AUC {r['reference']['metrics']['AUC_PR']:.3f}; SAD P@100R {r['SAD']['P@100R']:.3f}")
+              f"AUC {r['reference']['metrics']['AUC_PR']:.3f}; SAD P@100R {r['SAD']['P@100R']:.3f}; "
+              f"rate model on its training (summer) images R@1 {r['rate_model_training_images']['R@1']:.3f}")
         for name, b in r.get("backends", {}).items():
             tag = "on-chip" if name in ON_CHIP else "off-chip"
             if "metrics" in b:
