@@ -23,9 +23,7 @@ marks the blocks of neurons the segment reaches, so that delivery visits marked 
 only. Convolutions are delivered from their kernel (:mod:`.convolution`): a spike's
 targets and weights are computed from its position, and the buffer row records the range
 of neurons reached. Within a buffer entry the contributions keep the order of a
-synapse-by-synapse loop, so the sums are the same bit for bit. The spikes of a step are
-gathered first, so that the synapses of a spike a few places ahead are prefetched while
-one is delivered. Pair STDP is
+synapse-by-synapse loop, so the sums are the same bit for bit. Pair STDP is
 all-to-all with traces that jump by 1 (set to 1 for Diehl & Cook); all synapses of a
 segment (one presynaptic neuron, projection and delay) see the same arrivals, so
 their presynaptic trace is held once per segment (``seg_xpre``, decayed lazily from
@@ -107,9 +105,6 @@ from .translation import (
 )
 
 NEVER = np.int64(2**62)
-# How many spikes ahead, and how many of their first static synapses, are prefetched.
-WARM_AHEAD = 16
-WARM_SYNAPSES = 128
 
 # Indices of the activity counters.
 ST_STEPS, ST_NEURON_UPDATES, ST_SPIKES, ST_SYN_EVENTS, ST_PLASTIC_UPDATES = range(5)
@@ -425,20 +420,6 @@ def decay_post_traces(rules, tr_lo, tr_hi, post_decay1, post_decay2, xpost1, xpo
 
 # -- the step loop ------------------------------------------------------------
 @njit(cache=True, inline="always", _nrt=False)
-def warm(i, d_seg_ptr, d_seg_start, d_post, d_w):  # fmt: skip
-    """Prefetch the first synapses of neuron ``i``'s static segments (a hint: no effect on results).
-
-    The segments of successive spikes lie apart, so the hardware prefetcher starts on
-    each late; a spike's targets and weights are requested a few spikes ahead.
-    """
-    for g in range(d_seg_ptr[i], d_seg_ptr[i + 1]):
-        lo, hi = np.uint64(d_seg_start[g]), np.uint64(d_seg_start[g + 1])
-        for q in range(lo, min(hi, lo + np.uint64(WARM_SYNAPSES)), np.uint64(8)):
-            prefetch(d_w, q)
-            prefetch(d_post, q)
-
-
-@njit(cache=True, inline="always", _nrt=False)
 def convolve(k, at, cv_index, cv_par, cv_w, buf, row_any, row_range, ring, width):  # fmt: skip
     """Schedule a spike through the structured convolution entry at ``cv_index[k:k + 3]``; return the synapses reached.
 
@@ -566,7 +547,7 @@ def run_steps(
     post_ptr, post_syn, post_seg, post_rule, proj_inh, tr_lo, tr_hi, tr_shift, post_tr_ptr, post_tr_idx, trace_proj,
     rules, pre_table, post_decay1, post_decay2, xpost1, xpost2, x_pre, ev, ev_n,
     pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng,
-    rec_mask, rec_t, rec_i, rec_n, headroom, var_idx, var_code, var_out, stats, spk, cv_index, cv_par, cv_w,
+    rec_mask, rec_t, rec_i, rec_n, headroom, var_idx, var_code, var_out, stats, cv_index, cv_par, cv_w,
     row_range,
 ):  # fmt: skip
     """Advance from step ``j0`` to ``j1`` (exclusive); return the step reached.
@@ -587,26 +568,18 @@ def run_steps(
         slot = j % ring
         after = slot + 1 if slot + 1 < ring else 0  # the slot of step j + 1
         # 1. sources
-        m = 0
         for k in range(pois_idx.size):
             if pois_next[k] == j:
                 i = pois_idx[k]
                 if pois_start[k] <= j < pois_end[k]:
-                    spk[m] = i
-                    m += 1
-                    if m <= WARM_AHEAD:
-                        warm(i, d_seg_ptr, d_seg_start, d_post, d_w)
+                    emit(i, j, slot, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg, d_post,
+                         d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay, ev, ev_n, stats, cv_index,
+                         cv_par, cv_w, row_range)  # fmt: skip
                 g = geometric_gap(rng, pois_logq[k])
                 pois_next[k] = NEVER if g == NEVER else j + 1 + g
             elif pois_next[k] < j:  # window change or redraw in the past: draw forward
                 g = geometric_gap(rng, pois_logq[k])
                 pois_next[k] = NEVER if g == NEVER else j + g
-        for e in range(m):
-            if e + WARM_AHEAD < m:
-                warm(spk[e + WARM_AHEAD], d_seg_ptr, d_seg_start, d_post, d_w)
-            emit(spk[e], j, slot, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg,
-                 d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay, ev, ev_n,
-                 stats, cv_index, cv_par, cv_w, row_range)  # fmt: skip
         while arr_ptr[0] < arr_step.size and arr_step[arr_ptr[0]] <= j:
             if arr_step[arr_ptr[0]] == j:
                 emit(arr_neuron[arr_ptr[0]], j, slot, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start,
@@ -635,34 +608,26 @@ def run_steps(
             else:
                 n_spikes = update_cond(lo, hi, flags, params, dt, plastic_on, v, ie, ii, theta, refr, flag)
             word = lo >> 3
-            m = 0
-            while m < n_spikes:
+            while n_spikes > 0:
                 if flag_words[word] != 0:
                     for i in range(word << 3, (word << 3) + 8):
                         if flag[i]:
                             flag[i] = False
-                            spk[m] = i
-                            m += 1
-                            if m <= WARM_AHEAD:
-                                warm(i, d_seg_ptr, d_seg_start, d_post, d_w)
+                            n_spikes -= 1
+                            v[i] = params[lo, C_V_RESET]
+                            refr[i] = np.int64(params[lo, C_REFRAC])
+                            ica[i] += params[lo, C_I_ALPHA]
+                            if plastic_on:
+                                theta[i] += params[lo, C_THETA_PLUS]
+                                stats[ST_PLASTIC_UPDATES] += potentiate(
+                                    i, j + 1, dt, post_ptr, post_syn, post_seg, post_rule, seg_proj, seg_xpre, seg_last,
+                                    p_w, rules, pre_table, tr_shift, xpost2, x_pre,
+                                )  # fmt: skip
+                            post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2)
+                            emit(i, j + 1, after, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg,
+                                 d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay,
+                                 ev, ev_n, stats, cv_index, cv_par, cv_w, row_range)  # fmt: skip
                 word += 1
-            for e in range(m):
-                if e + WARM_AHEAD < m:
-                    warm(spk[e + WARM_AHEAD], d_seg_ptr, d_seg_start, d_post, d_w)
-                i = spk[e]
-                v[i] = params[lo, C_V_RESET]
-                refr[i] = np.int64(params[lo, C_REFRAC])
-                ica[i] += params[lo, C_I_ALPHA]
-                if plastic_on:
-                    theta[i] += params[lo, C_THETA_PLUS]
-                    stats[ST_PLASTIC_UPDATES] += potentiate(
-                        i, j + 1, dt, post_ptr, post_syn, post_seg, post_rule, seg_proj, seg_xpre, seg_last,
-                        p_w, rules, pre_table, tr_shift, xpost2, x_pre,
-                    )  # fmt: skip
-                post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2)
-                emit(i, j + 1, after, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg,
-                     d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay,
-                     ev, ev_n, stats, cv_index, cv_par, cv_w, row_range)  # fmt: skip
         # 4. state recording
         if var_idx.size:
             row = j - j0

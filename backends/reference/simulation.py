@@ -117,7 +117,6 @@ class ReferenceSimulation(Simulation):
             self._row_range[0] = n
             self._flag = np.zeros(-(-n // 8) * 8, dtype=np.bool_)
             self._flag_words = self._flag.view(np.uint64)
-            self._spk = np.zeros(max(n, 1), dtype=np.int64)  # scratch: the neurons spiking in one group or step
             self._seg_xpre = np.zeros(n_seg)
             self._seg_last = np.full(n_seg, _PAST, dtype=np.int64)
             self._xpost1 = np.zeros(lay.n_traces)
@@ -227,7 +226,7 @@ class ReferenceSimulation(Simulation):
                 self._pois_idx, self._pois_logq, self._pois_next, self._pois_start, self._pois_end,
                 self._arr_step, self._arr_neuron, self._arr_ptr, self._rng,
                 self._rec_mask, self._rec_t, self._rec_i, self._rec_n, self._headroom,
-                self._var_idx, self._var_code, var_out[j - j0 :], self._stats, self._spk, lay.cv_index,
+                self._var_idx, self._var_code, var_out[j - j0 :], self._stats, lay.cv_index,
                 lay.cv_par, lay.cv_w, self._row_range,
             )  # fmt: skip
             self._flush_spikes()
