@@ -10,10 +10,10 @@ and read the weights from the transposed kernel ``(C, kh, kw, O)`` (a few kiloby
 which stay in cache) instead of one stored target and weight per synapse, which for a
 convolutional network are megabytes streamed from memory on every query.
 
-Every other static synapse goes the generic way (:func:`.translation.static_delivery`).
+Every other static synapse goes the generic way (:func:`.delivery.static_delivery`).
 The synapses of a structured projection stay in the static CSR arrays (``s_*``), which
 the weight and connection queries read; setting weights that no longer share a kernel
-moves the projection to the generic path (:func:`split_static` again).
+moves the projection to the generic path (:func:`.delivery.split_static` again).
 
 Results are the same bit for bit as the synapse-by-synapse loop: a spike adds one term
 per target, in spike order, and a target receives one term per structured projection.

@@ -18,7 +18,7 @@ group (subtracting them is the identity: results are the same bit for bit). A gr
 spikes are then handled in increasing neuron index, as a neuron-by-neuron loop would
 (a spike only changes its own neuron and steps after ``j + 1``). Static arrivals are
 summed per (receptor, ring slot, neuron): a spike adds each of its static segments (one
-delay and receptor, see :func:`.translation.static_delivery`) into one buffer row and
+delay and receptor, see :func:`.delivery.static_delivery`) into one buffer row and
 marks the blocks of neurons the segment reaches, so that delivery visits marked blocks
 only. Convolutions are delivered from their kernel (:mod:`.convolution`): a spike's
 targets and weights are computed from its position, and the buffer row records the range
@@ -57,9 +57,9 @@ from .convolution import (
     CV_SW,
     CV_WOFF,
 )
+from .delivery import BLOCK_SHIFT
 from .prefetch import prefetch
 from .translation import (
-    BLOCK_SHIFT,
     C_CM,
     C_E_REV_E,
     C_E_REV_I,

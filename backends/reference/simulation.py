@@ -15,7 +15,8 @@ from neurovpr.simulation import Simulation
 
 from . import kernels
 from .convolution import CV_WOFF
-from .translation import BLOCK_SHIFT, C_I_CA_INIT, C_V_INIT, KIND_POISSON, VAR_CODES, build_layout, split_static
+from .delivery import BLOCK_SHIFT, split_static
+from .translation import C_I_CA_INIT, C_V_INIT, KIND_POISSON, VAR_CODES, build_layout
 
 _PAST = -(2**40)
 
