@@ -460,8 +460,11 @@ def emit(
     """Record the spike of neuron ``i`` at step ``stamp`` and schedule its arrivals.
 
     Each static segment (one delay and receptor) adds its weights into one row of the
-    ring buffer ``buf`` (row ``receptor * ring + slot``, flattened) and marks the
-    neuron blocks it touches in ``dirty`` (``row_any`` says that a row has marks).
+    ring buffer ``buf`` (row ``receptor * ring + slot``, flattened, ``width`` entries
+    each) and marks the neuron blocks it touches in ``dirty`` (``row_any`` says that a
+    row has marks); each structured convolution the neuron feeds adds through
+    :func:`convolve`. ``at`` is ``stamp``'s ring slot (``stamp % ring``), so that the
+    slot of an arrival needs no division.
     """
     counts[i] += 1
     stats[ST_SPIKES] += 1
