@@ -1,4 +1,4 @@
-"""Convolutions delivered from their kernel, and the split of static synapses into two paths.
+"""Convolutions delivered from their kernel: which projections qualify, and the arrays the kernels read.
 
 A static projection with a :class:`~neurovpr.connectors.ConvolutionConnector`, one delay
 for all its synapses and, for every kernel element, the same weight on every synapse
@@ -125,20 +125,19 @@ def conv_spec(
     if ky.min() < 0 or ky.max() >= kh or kx.min() < 0 or kx.max() >= kw:
         return None
     # the kernels visit every (oy, ox) whose field holds (y, x): that must be exactly these synapses
-    reach = _reach(np.arange(h), ph, kh, sh, oh)[:, None] * _reach(np.arange(w), pw, kw, sw, ow)[None, :]
-    if int(reach.sum()) * c * o != pre.size:
+    lo_y, end_y = _span(np.arange(h) + ph, kh, sh, oh)
+    lo_x, end_x = _span(np.arange(w) + pw, kw, sw, ow)
+    if int((end_y - lo_y).sum() * (end_x - lo_x).sum()) * c * o != pre.size:
         return None
     row = np.array([offsets[0], c, h, w, o, oh, ow, kh, kw, sh, sw, ph, pw, offsets[1], int(steps[0]), int(inhibitory), 0])
     spec = ConvSpec(names=(name,), row=row.astype(np.int64), fields=((ci * kh + ky) * kw + kx,), channels=(oc,))
     return spec if spec.kernel([weight]) is not None else None
 
 
-def _reach(pos: np.ndarray, pad: int, k: int, s: int, n_out: int) -> np.ndarray:
-    """How many output positions along one axis have input position ``pos`` in their field."""
-    p = pos + pad
-    lo = np.maximum(0, -((k - 1 - p) // s))  # ceil((p - k + 1) / s)
-    hi = np.minimum(n_out - 1, p // s)
-    return np.maximum(hi - lo + 1, 0)
+def _span(p: np.ndarray, k: int, s: int, n_out: int) -> tuple[np.ndarray, np.ndarray]:
+    """Output positions ``lo:end`` along one axis whose field (kernel ``k``, stride ``s``) holds padded input position ``p``."""
+    lo = np.minimum(np.maximum(0, -((k - 1 - p) // s)), n_out)  # ceil((p - k + 1) / s), within the output
+    return lo, np.maximum(np.minimum(n_out, p // s + 1), lo)
 
 
 def geometry(row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -154,13 +153,8 @@ def geometry(row: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     ci, rem = np.divmod(local, h * w)
     y, x = np.divmod(rem, w)
     yy, xx = y + row[CV_PH], x + row[CV_PW]
-
-    def span(p: np.ndarray, k: int, s: int, n_out: int) -> tuple[np.ndarray, np.ndarray]:
-        lo = np.maximum(0, -((k - 1 - p) // s))
-        return np.minimum(lo, n_out), np.maximum(np.minimum(n_out, p // s + 1), np.minimum(lo, n_out))
-
-    oy_lo, oy_end = span(yy, int(row[CV_KH]), int(row[CV_SH]), int(row[CV_OH]))
-    ox_lo, ox_end = span(xx, int(row[CV_KW]), int(row[CV_SW]), int(row[CV_OW]))
+    oy_lo, oy_end = _span(yy, int(row[CV_KH]), int(row[CV_SH]), int(row[CV_OH]))
+    ox_lo, ox_end = _span(xx, int(row[CV_KW]), int(row[CV_SW]), int(row[CV_OW]))
     a = ci | (yy << 20) | (xx << 40)
     b = oy_lo | (oy_end << 16) | (ox_lo << 32) | (ox_end << 48)
     return a, b

@@ -420,6 +420,16 @@ def decay_post_traces(rules, tr_lo, tr_hi, post_decay1, post_decay2, xpost1, xpo
 
 # -- the step loop ------------------------------------------------------------
 @njit(cache=True, inline="always", _nrt=False)
+def later_slot(at, delay, ring):  # fmt: skip
+    """The ring slot ``delay`` steps after slot ``at``: ``(at + delay) % ring`` without a division.
+
+    A delay is shorter than the ring, so one subtraction is enough.
+    """
+    due = at + delay
+    return due - ring if due >= ring else due
+
+
+@njit(cache=True, inline="always", _nrt=False)
 def convolve(k, at, cv_index, cv_par, cv_w, buf, row_any, row_range, ring, width):  # fmt: skip
     """Schedule a spike through the structured convolution entry at ``cv_index[k:k + 3]``; return the synapses reached.
 
@@ -434,8 +444,7 @@ def convolve(k, at, cv_index, cv_par, cv_w, buf, row_any, row_range, ring, width
     sh, sw, post0, plane = cv_par[p, CV_SH], cv_par[p, CV_SW], cv_par[p, CV_POST0], cv_par[p, CV_OH] * ow
     c, yy, xx = a & 0xFFFFF, (a >> 20) & 0xFFFFF, a >> 40
     oy_lo, oy_end, ox_lo, ox_end = b & 0xFFFF, (b >> 16) & 0xFFFF, (b >> 32) & 0xFFFF, b >> 48
-    due = at + cv_par[p, CV_DELAY]  # a delay is shorter than the ring: no division needed
-    row = cv_par[p, CV_REC] * ring + (due - ring if due >= ring else due)
+    row = cv_par[p, CV_REC] * ring + later_slot(at, cv_par[p, CV_DELAY], ring)
     row_any[row] = True
     row_range[0, row] = min(row_range[0, row], post0)
     row_range[1, row] = max(row_range[1, row], post0 + o * plane)
@@ -476,8 +485,7 @@ def emit(
     ring = ev_n.size
     n_blocks = width >> BLOCK_SHIFT
     for g in range(d_seg_ptr[i], d_seg_ptr[i + 1]):
-        due = at + d_seg[g, 0]  # a delay is shorter than the ring: no division needed
-        row = d_seg[g, 1] * ring + (due - ring if due >= ring else due)
+        row = d_seg[g, 1] * ring + later_slot(at, d_seg[g, 0], ring)
         row_any[row] = True
         base = np.uint64(row * width)  # unsigned indices: no negative-index wrap
         lo, hi = np.uint64(d_seg_start[g]), np.uint64(d_seg_start[g + 1])
@@ -496,10 +504,23 @@ def emit(
     for e in range(cv_index[i], cv_index[i + 1]):
         stats[ST_SYN_EVENTS] += convolve(first + 3 * e, at, cv_index, cv_par, cv_w, buf, row_any, row_range, ring, width)
     for g in range(row_seg_ptr[i], row_seg_ptr[i + 1]):
-        due = at + seg_delay[g]
-        due = due - ring if due >= ring else due
+        due = later_slot(at, seg_delay[g], ring)
         ev[due, ev_n[due]] = g
         ev_n[due] += 1
+
+
+@njit(cache=True, inline="always", _nrt=False)
+def add_and_clear(buf, base, isyn, r, lo, hi):  # fmt: skip
+    """Add buffer entries ``base + lo .. base + hi`` to ``isyn[r, lo:hi]`` and set them to 0.
+
+    An entry that is exactly 0 leaves its synaptic state as it is (adding +0.0 would
+    turn a -0.0 into +0.0).
+    """
+    for q in range(np.uint64(lo), np.uint64(hi)):
+        x = buf[base + q]
+        s = isyn[r, q]
+        isyn[r, q] = s + x if x != 0.0 else s
+        buf[base + q] = 0.0
 
 
 @njit(cache=True, inline="always", _nrt=False)
@@ -507,8 +528,8 @@ def deliver_static(slot, ring, n, buf, dirty, dirty_words, row_any, isyn, row_ra
     """Add the static arrivals of ring slot ``slot`` to ``isyn`` and clear them.
 
     First the row's range of neurons reached by structured convolutions, then the
-    marked blocks (entries the range has cleared add nothing). An entry that is exactly
-    0 leaves its synaptic state as it is (adding +0.0 would turn a -0.0 into +0.0).
+    marked blocks (entries the range has cleared add nothing), each with
+    :func:`add_and_clear`.
     """
     width = buf.size // row_any.size
     n_blocks = dirty.size // row_any.size
@@ -518,13 +539,9 @@ def deliver_static(slot, ring, n, buf, dirty, dirty_words, row_any, isyn, row_ra
         if not row_any[row]:
             continue
         row_any[row] = False
+        base = np.uint64(row * width)
         if row_range[0, row] < row_range[1, row]:
-            base = np.uint64(row * width)
-            for q in range(np.uint64(row_range[0, row]), np.uint64(row_range[1, row])):
-                x = buf[base + q]
-                s = isyn[r, q]
-                isyn[r, q] = s + x if x != 0.0 else s
-                buf[base + q] = 0.0
+            add_and_clear(buf, base, isyn, r, row_range[0, row], row_range[1, row])
             row_range[0, row], row_range[1, row] = n, 0
         marks = row * n_blocks
         for word in range(marks >> 3, (marks + n_blocks) >> 3):
@@ -533,13 +550,7 @@ def deliver_static(slot, ring, n, buf, dirty, dirty_words, row_any, isyn, row_ra
             dirty_words[word] = 0
             for b in range((word << 3) - marks, (word << 3) - marks + 8):
                 lo = b * block
-                hi = min(lo + block, n)
-                base = np.uint64(row * width)
-                for q in range(np.uint64(lo), np.uint64(max(lo, hi))):
-                    x = buf[base + q]
-                    s = isyn[r, q]
-                    isyn[r, q] = s + x if x != 0.0 else s
-                    buf[base + q] = 0.0
+                add_and_clear(buf, base, isyn, r, lo, max(lo, min(lo + block, n)))
 
 
 @njit(cache=True, _nrt=False)
@@ -569,7 +580,7 @@ def run_steps(
         if rec_n[0] + headroom > cap:
             return j
         slot = j % ring
-        after = slot + 1 if slot + 1 < ring else 0  # the slot of step j + 1
+        after = later_slot(slot, 1, ring)  # the slot of step j + 1
         # 1. sources
         for k in range(pois_idx.size):
             if pois_next[k] == j:
