@@ -16,18 +16,31 @@ the 2,400 nordland64 frames) and takes the first ``--places`` of them, in route 
 ``first`` takes the first ``--places`` frames as they are (the route starts with about 20
 near-identical frames in a station, which no method can tell apart).
 
+Members on several machines. Every member's modules are seeded by the master seed and
+the member index alone, and each member's similarity matrix is saved as
+``similarity/m<member>.npz`` with the digests of its data and settings. ``--only-members
+3,4`` trains and evaluates just those members of the ``--members`` ensemble and saves
+their matrices; ``--combine`` then evaluates the ensembles from the saved matrices of all
+members (copied into one ``--out``), refusing any whose data, settings or seed differ.
+
 Usage (from the repository root)::
 
     python benchmarks/modular_snn_nordland.py                   # defaults below
     python benchmarks/modular_snn_nordland.py --places 200 --epochs 30 --resume
+    python benchmarks/modular_snn_nordland.py --members 5 --only-members 3,4   # on another machine
+    python benchmarks/modular_snn_nordland.py --members 5 --combine            # after copying similarity/
 
-Writes ``results.json`` and the run (``run/``, resumable with ``--resume``) to ``--out``.
+Writes ``results.json``, the members' matrices (``similarity/``) and the run (``run/``,
+resumable with ``--resume``) to ``--out``.
 """
 
 from __future__ import annotations
 
 import argparse
+import io
 import json
+import os
+import platform
 import sys
 import time
 from pathlib import Path
@@ -35,11 +48,12 @@ from pathlib import Path
 import numpy as np
 
 from neurovpr.data.traverse import Traverse
-from neurovpr.fileio import atomic_write_text
+from neurovpr.fileio import atomic_write_bytes, atomic_write_text
 from neurovpr.models.modular_snn import TrainingSettings, member_similarities, query_responses, train_run
 from neurovpr.models.modular_snn.parallel import default_workers
 from neurovpr.models.modular_snn.plugin import load_traverse
 from neurovpr.models.modular_snn.report import evaluate_similarities
+from neurovpr.models.modular_snn.runs import describe_plan, reference_digest
 from neurovpr.paths import shared_datasets
 
 FULL_PLACES, FULL_EPOCHS, MODULE = 2400, 30, 25
@@ -78,7 +92,38 @@ def _args() -> argparse.Namespace:
     p.add_argument("--seed", type=int, default=0, help="master seed (default 0)")
     p.add_argument("--out", type=Path, default=Path("reports/modular_snn_nordland"), help="output folder")
     p.add_argument("--resume", action="store_true", help="continue a run in --out")
+    p.add_argument("--only-members", default=None, help="train and save only these members, e.g. 3,4 (see the docstring)")
+    p.add_argument("--combine", action="store_true", help="evaluate from the saved matrices of every member in --out")
     return p.parse_args()
+
+
+_TIMING_KEYS = ("train_seconds_per_module", "train_cpu_seconds_per_module", "record_cpu_seconds_per_module")
+
+
+def _member_key(args: argparse.Namespace, settings: TrainingSettings, reference: np.ndarray, query: np.ndarray) -> str:
+    """What a saved member matrix must match to join an ensemble: data, settings, seed."""
+    parts = [settings.as_dict(), reference_digest(reference), reference_digest(query), args.seed, args.subset, args.places]
+    return reference_digest(np.frombuffer(json.dumps(parts, sort_keys=True).encode(), dtype=np.uint8)[None, :])
+
+
+def _save_member(folder: Path, member: int, sim: np.ndarray, key: str, info: dict) -> None:
+    """``similarity/m<member>.npz``: the matrix, its key, the run's timing per module and the machine."""
+    timing = np.array([float(info[k]) for k in _TIMING_KEYS])
+    machine = f"{platform.machine()}, {os.cpu_count()} CPUs"
+    buf = io.BytesIO()
+    np.savez_compressed(buf, similarity=sim.astype(np.float32), key=np.str_(key), timing=timing, machine=np.str_(machine))
+    atomic_write_bytes(folder / f"m{member:02d}.npz", buf.getvalue())
+
+
+def _load_member(folder: Path, member: int, key: str) -> tuple[np.ndarray, dict]:
+    path = folder / f"m{member:02d}.npz"
+    if not path.is_file():
+        raise SystemExit(f"{path} is missing: train member {member} (--only-members {member}) and copy its matrix here")
+    with np.load(path) as f:
+        if str(f["key"]) != key:
+            raise SystemExit(f"{path} was computed from other data, settings or seed than this run")
+        meta = dict(zip(_TIMING_KEYS, f["timing"].tolist(), strict=True), machine=str(f["machine"]))
+        return f["similarity"].astype(np.float64), meta
 
 
 def main() -> int:
@@ -96,16 +141,32 @@ def main() -> int:
     reference = traverse.reference.preprocessed()
     query = traverse.query.preprocessed()
     settings = TrainingSettings(epochs=args.epochs, module_size=MODULE)
-    run_dir = args.out / "run"
+    run_dir, sim_dir = args.out / "run", args.out / "similarity"
+    key = _member_key(args, settings, reference, query)
+    only = None if args.only_members is None else sorted({int(x) for x in args.only_members.split(",")})
     start = time.perf_counter()
-    summary = train_run(run_dir, reference, settings, members=args.members, seed=args.seed, workers=workers, resume=args.resume)
+    summary: dict = {}
+    if not args.combine:
+        summary = train_run(
+            run_dir, reference, settings, members=args.members, seed=args.seed, workers=workers, resume=args.resume,
+            only_members=only,
+        )  # fmt: skip
+        info = summary["run_info"]
+        counts = query_responses(run_dir, info, query, workers=workers)
+        chosen = only if only is not None else list(range(args.members))
+        for m, sim in zip(chosen, member_similarities(run_dir, info, counts, members=chosen), strict=True):
+            _save_member(sim_dir, m, sim, key, info)
+        if only is not None:
+            print(f"members {chosen} saved in {sim_dir} ({time.perf_counter() - start:.0f} s wall on {workers} workers)")
+            return 0
     train_wall = time.perf_counter() - start
-    info = json.loads((run_dir / "run.json").read_text())
-    counts = query_responses(run_dir, info, query, workers=workers)
-    sims = member_similarities(run_dir, info, counts)
+    loaded = [_load_member(sim_dir, m, key) for m in range(args.members)]
+    sims = [sim for sim, _ in loaded]
     ensembles = sorted({k for k in (3, args.members) if k <= args.members})
     results = {k: evaluate_similarities(sims[:k], reference, query, traverse.ground_truth, seq_lens=seq_lens) for k in ensembles}
     total_wall = time.perf_counter() - start
+    timing = [meta for _, meta in loaded]
+    thetas = [float(v) for v in summary["run_info"]["hyperactive"]["thetas"]] if summary else None
 
     table: dict[str, dict[str, dict[str, float]]] = {}
     for seq_len in map(str, seq_lens):
@@ -118,29 +179,30 @@ def main() -> int:
         rows.update(first["baselines"])
         table[seq_len] = {name: {"R@1": m["R@1"], "R@5": m["R@5"]} for name, m in rows.items()}
 
-    n_train = info["train_seconds_per_module"]
-    n_cpu = info["train_cpu_seconds_per_module"]
+    n_train = float(np.mean([t["train_seconds_per_module"] for t in timing]))
+    n_cpu = float(np.mean([t["train_cpu_seconds_per_module"] for t in timing]))
     per_image = n_cpu / (args.epochs * MODULE)
-    rec_per_image = info["record_cpu_seconds_per_module"] / args.places
+    rec_per_image = float(np.mean([t["record_cpu_seconds_per_module"] for t in timing])) / args.places
     full_module_cpu = FULL_EPOCHS * MODULE * per_image + FULL_PLACES * rec_per_image
     out = {
         "data": str(data),
         "subset": f"{_SUBSETS[args.subset].format(n=args.places)} (reference = summer, query = winter), {args.epochs} epochs, "
         f"{MODULE} places per module, {args.members} members, seed {args.seed}",
-        "plan": info["plan"],
-        "hyperactive_thetas": info["hyperactive"]["thetas"],
+        "plan": describe_plan(args.places, MODULE),
+        "hyperactive_thetas": thetas,
         "workers": workers,
         "table": table,
         "per_member": {s: results[ensembles[-1]]["by_seq_len"][s]["members"] for s in map(str, seq_lens)},
+        "per_member_timing": timing,
         "timing": {
             "train_seconds_per_module_wall": n_train,
             "train_seconds_per_module_cpu": n_cpu,
-            "record_seconds_per_module_cpu": info["record_cpu_seconds_per_module"],
+            "record_seconds_per_module_cpu": rec_per_image * args.places,
             "cpu_seconds_per_training_image": round(per_image, 4),
             "cpu_seconds_per_recorded_image": round(rec_per_image, 4),
             "full_run_estimate_cpu_seconds_per_module": round(full_module_cpu, 1),
             "full_run_estimate_cpu_hours_per_member": round(full_module_cpu * FULL_PLACES / MODULE / 3600, 1),
-            "train_wall_seconds": round(train_wall, 1),
+            "train_wall_seconds": None if args.combine else round(train_wall, 1),
             "total_wall_seconds": round(total_wall, 1),
             "trained_now": summary.get("trained_now"),
         },
@@ -165,8 +227,9 @@ def _print(out: dict, seq_lens: list[int]) -> None:
         f"full {FULL_PLACES}-place, {FULL_EPOCHS}-epoch run: about {t['full_run_estimate_cpu_hours_per_member']} CPU hours "
         f"per member; this run: {t['total_wall_seconds']} s wall on {out['workers']} workers"
     )
-    hyper = np.round(out["hyperactive_thetas"], 1).tolist()
-    print(f"hyperactive thresholds per member: {hyper}; results in results.json")
+    if out["hyperactive_thetas"] is not None:
+        print(f"hyperactive thresholds per member: {np.round(out['hyperactive_thetas'], 1).tolist()}")
+    print(f"machines: {sorted({t['machine'] for t in out['per_member_timing']})}; results in results.json")
 
 
 if __name__ == "__main__":

@@ -176,6 +176,7 @@ def train_run(
     info: dict[str, Any] | None = None,
     progress: bool = True,
     extra_references: Sequence[np.ndarray] = (),
+    only_members: Sequence[int] | None = None,
 ) -> dict[str, Any]:
     """Train every module of every member into ``run_dir``; write ``run.json`` when all are done.
 
@@ -203,13 +204,21 @@ def train_run(
         order, each ``(R, 28, 28)``, trained on together with ``reference`` (see the
         module docstring); their digests enter every module's fingerprint and
         ``run.json`` (``extra_reference_digests``).
+    only_members
+        Train the modules of these members only (indices into ``0..members-1``), e.g. to
+        spread the members of one ensemble over several machines; every member's
+        modules are seeded by the master seed and the member index alone, so a member
+        trained this way is the member a full run trains.
 
     Returns
     -------
     dict
         A summary: the plan, modules trained now and skipped, timing per module, and
-        ``"complete"`` (with ``"remaining_modules"`` when ``max_modules`` stopped it
-        early, with the members' ``"thetas"`` when ``run.json`` was written).
+        ``"complete"`` (with ``"remaining_modules"`` when modules are left, with the
+        members' ``"thetas"`` when ``run.json`` was written). When every module of the
+        chosen members (``only_members``, or all) is finished, ``"run_info"`` holds
+        what ``run.json`` would hold for those members alone (their modules, every
+        member's theta), for :func:`query_responses` and :func:`member_similarities`.
     """
     run_dir = Path(run_dir)
     images = _as_rows(reference)
@@ -229,6 +238,9 @@ def train_run(
         raise nv.ValidationError(f"hyperactive threshold theta is {theta!r}, expected a number >= 0.")
     if max_modules is not None and max_modules < 1:
         raise nv.ValidationError(f"max modules is {max_modules}, expected at least 1.")
+    chosen = set(range(int(members))) if only_members is None else {int(m) for m in only_members}
+    if not chosen or not chosen <= set(range(int(members))):
+        raise nv.ValidationError(f"only_members {sorted(chosen)} must name members among 0..{int(members) - 1}.")
     existing = _modules_dir(run_dir).is_dir() and any(_modules_dir(run_dir).iterdir())
     if (existing or (run_dir / "run.json").exists()) and not resume:
         raise nv.ValidationError(f"{run_dir} already holds a run; pass --resume to continue it or choose another --out.")
@@ -239,8 +251,8 @@ def train_run(
     # without extra traverses the fingerprint is the one of single-traverse runs (they stay resumable)
     extra_part = (extra_digests,) if extras else ()
     prints = [_digest(cfg, data_digest, j.places, j.seed, j.name, *extra_part) for j in plan]
-    todo = [i for i, j in enumerate(plan) if not _finished(run_dir, j, prints[i])]
-    skipped = len(plan) - len(todo)
+    todo = [i for i, j in enumerate(plan) if j.member in chosen and not _finished(run_dir, j, prints[i])]
+    skipped = sum(1 for j in plan if j.member in chosen) - len(todo)
     if max_modules is not None:
         todo = todo[:max_modules]
     _modules_dir(run_dir).mkdir(parents=True, exist_ok=True)
@@ -256,14 +268,15 @@ def train_run(
     shared = np.concatenate([images, *extras], axis=0) if extras else images
     jobs = [(cfg, f"modular_snn_{plan[i].name}", plan[i].places, plan[i].seed, prints[i], n_traverses) for i in todo]
     start = time.perf_counter()
-    bar = _bar(len(plan), skipped, "training modules", progress)
+    bar = _bar(len(todo) + skipped, skipped, "training modules", progress)
     try:
         run_jobs(train_job, shared, jobs, write, workers=workers, scheduler=scheduler, progress=bar)
     finally:
         if bar is not None:
             bar.close()
     wall = time.perf_counter() - start
-    remaining = sum(1 for i, j in enumerate(plan) if not _finished(run_dir, j, prints[i]))
+    unfinished = [j for i, j in enumerate(plan) if not _finished(run_dir, j, prints[i])]
+    remaining = len(unfinished)
     summary: dict[str, Any] = {
         "run": str(run_dir),
         "plan": describe_plan(n_ref, settings.module_size),
@@ -279,12 +292,14 @@ def train_run(
             summary[f"{key}_per_module"] = round(float(np.mean([t[key] for t in timings])), 3)
     if remaining:
         summary.update(complete=False, remaining_modules=remaining)
+    if any(j.member in chosen for j in unfinished):
         return summary
     thetas = [
         float(theta) if theta is not None else draw_hyperactive_threshold(n_ref, _member_rng(seed, m))
         for m in range(int(members))
     ]
-    records = [read_npz(_modules_dir(run_dir) / f"{j.name}.npz") for j in plan]
+    done = [j for j in plan if j.member in chosen]
+    records = [read_npz(_modules_dir(run_dir) / f"{j.name}.npz") for j in done]
     run_info = {
         "model": "modular",
         "format": RUN_FORMAT,
@@ -303,7 +318,7 @@ def train_run(
         "score": score,
         "settings": settings.as_dict(),
         "modules": [
-            {"member": j.member, "module": j.module, "name": j.name, "seed": j.seed, "places": j.places.tolist()} for j in plan
+            {"member": j.member, "module": j.module, "name": j.name, "seed": j.seed, "places": j.places.tolist()} for j in done
         ],
         **{
             f"{key}_per_module": round(float(np.mean([float(r[key]) for r in records])), 3)
@@ -311,6 +326,9 @@ def train_run(
         },
         **(info or {}),
     }
+    summary["run_info"] = run_info
+    if remaining:
+        return summary
     atomic_write_text(run_dir / "run.json", json.dumps(run_info, indent=1))
     summary.update(complete=True, thetas=thetas)
     return summary
@@ -393,12 +411,15 @@ def query_responses(
 def member_similarities(
     run_dir: str | Path, run_info: dict[str, Any], counts: dict[str, np.ndarray], members: Sequence[int] | None = None
 ) -> list[np.ndarray]:
-    """The ``(R, Q)`` similarity matrix of each member: assignment, hyperactive removal, fusion."""
+    """The ``(R, Q)`` similarity matrix of each member: assignment, hyperactive removal, fusion.
+
+    ``members`` (default: every member with modules in ``run_info``) chooses which, in that order.
+    """
     run_dir = Path(run_dir)
     n_ref = int(run_info["n_reference"])
     thetas = run_info["hyperactive"]["thetas"]
     measure = run_info["hyperactive"]["measure"]
-    chosen = range(int(run_info["members"])) if members is None else members
+    chosen = sorted({int(mod["member"]) for mod in _modules(run_info)}) if members is None else members
     by_member: dict[int, list[np.ndarray]] = {int(m): [] for m in chosen}
     for mod in _modules(run_info):
         m = int(mod["member"])

@@ -211,6 +211,30 @@ def test_resume_gives_the_same_result_as_an_uninterrupted_run(tmp_path: Path) ->
         train_run(tmp_path / "part", ref, dataclasses.replace(TINY, epochs=1), resume=True, **kw)
 
 
+def test_members_trained_apart_equal_the_members_of_a_full_run(tmp_path: Path) -> None:
+    ref, query = tiny_images(4, seed=1), tiny_images(4, seed=2)
+    kw = {"members": 3, "seed": 5, "workers": 1, "progress": False}
+    full = train_run(tmp_path / "full", ref, TINY, **kw)
+    part = train_run(tmp_path / "part", ref, TINY, only_members=[2, 1], **kw)
+    assert not part["complete"] and part["remaining_modules"] == 2 and not (tmp_path / "part" / "run.json").exists()
+    info = part["run_info"]
+    assert {m["member"] for m in info["modules"]} == {1, 2}
+    assert info["hyperactive"] == full["run_info"]["hyperactive"]
+    sims = member_similarities(tmp_path / "part", info, query_responses(tmp_path / "part", info, query, progress=False))
+    full_info = full["run_info"]
+    full_sims = member_similarities(
+        tmp_path / "full", full_info, query_responses(tmp_path / "full", full_info, query, progress=False), members=[1, 2]
+    )
+    for x, y in zip(sims, full_sims, strict=True):
+        np.testing.assert_array_equal(x, y)
+    trained = sorted(p.stem for p in (tmp_path / "part" / "modules").glob("*.h5"))
+    assert trained == ["m01_k000", "m01_k001", "m02_k000", "m02_k001"]
+    rest = train_run(tmp_path / "part", ref, TINY, resume=True, only_members=[0], **kw)
+    assert rest["complete"] and rest["trained_now"] == 2 and (tmp_path / "part" / "run.json").exists()
+    with pytest.raises(nv.ValidationError, match="only_members"):
+        train_run(tmp_path / "bad", ref, TINY, only_members=[3], **kw)
+
+
 def test_dask_local_cluster_and_process_pool_equal_in_process_training(tmp_path: Path) -> None:
     distributed = pytest.importorskip("distributed")
     ref, query = tiny_images(4, seed=3), tiny_images(4, seed=4)
