@@ -44,17 +44,23 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from dataclasses import dataclass
 
-import numpy as np
 from tqdm import tqdm
 
 from neurovpr.cells import SpikeSourceArray, SpikeSourcePoisson
-from neurovpr.connectors import AllToAllConnector, OneToOneConnector
+from neurovpr.connectors import OneToOneConnector
 from neurovpr.network import Network, Projection
 
-from .hwspec import HwSpec, SpinnakerRules
-from .partition import CoreSlice, Partition, Violation, expand_on_chip
+from .hwspec import HwSpec
+from .partition import CoreSlice, Partition, Violation
+from .spinnaker_rows import (
+    align_block,
+    delay_steps,
+    longest_delay,
+    native_connector,
+    row_lengths,
+    row_words,
+)
 
 __all__ = ["partition_spinnaker", "n_bits", "spynnaker_step_us", "spynnaker_timing"]
 
@@ -93,30 +99,6 @@ def spynnaker_timing(spec: HwSpec) -> HwSpec:
     return dataclasses.replace(spec, timing=dataclasses.replace(spec.timing, time_step_ms=step_ms))
 
 
-def _delay_steps(delay_ms: np.ndarray | float, step_ms: float) -> np.ndarray:
-    """Delays in whole steps of at least one, rounded as sPyNNaker rounds them.
-
-    ``numpy.rint(delay * get_simulation_time_step_per_ms())`` with steps per ms
-    ``1000.0 / step_us`` (fec_data_writer.py; the rounding of FromListConnector,
-    AbstractSynapseDynamics.round_delay and synapse_io.py).
-    """
-    per_ms = 1000.0 / round(step_ms * 1000.0)
-    return np.maximum(1, np.rint(np.asarray(delay_ms, dtype=np.float64) * per_ms)).astype(np.int64)
-
-
-def _align(address: int, rules: SpinnakerRules) -> int:
-    scale = rules.block_alignment_bytes
-    return -(-address // scale) * scale
-
-
-@dataclass(slots=True)
-class _Rows:
-    """Longest undelayed and delayed rows (in synapses) of one projection onto one post core."""
-
-    undelayed: int
-    delayed: int
-
-
 def _max_atoms(pop, spec: HwSpec) -> int:
     rules = spec.spinnaker
     assert rules is not None
@@ -125,131 +107,6 @@ def _max_atoms(pop, spec: HwSpec) -> int:
     if isinstance(pop.cell_type, SpikeSourceArray):
         return pop.size if rules.array_sources_per_core == 0 else min(rules.array_sources_per_core, pop.size)
     return min(spec.core.max_neurons, pop.size)
-
-
-def _native(proj: Projection) -> bool:
-    """Whether sPyNNaker's own connector is used: one weight and one delay for every synapse.
-
-    sPyNNaker's AllToAll/OneToOne connectors refuse per-synapse weight arrays, and random
-    weights would be drawn by its own generator, so anything else is an explicit list.
-    sPyNNaker's all-to-all leaves ``i -> i`` out only from a population onto itself, so
-    an all-to-all without self-connections between two populations is a list too.
-    """
-    conn = proj.connector
-    delay = proj.synapse.delay
-    if isinstance(conn, AllToAllConnector) and not conn.allow_self_connections and proj.pre != proj.post:
-        return False
-    return (
-        isinstance(conn, (AllToAllConnector, OneToOneConnector))
-        and isinstance(proj.synapse.weight, float)
-        and (delay is None or isinstance(delay, float))
-    )
-
-
-def _rounded_ms(delay_ms: float, step: float) -> float:
-    """A delay rounded to whole steps of at least one (sPyNNaker's ``_round_delay``)."""
-    return float(_delay_steps(delay_ms, step)) * step
-
-
-def _signed_parts(network: Network, proj: Projection, weight: np.ndarray, spec: HwSpec) -> list[np.ndarray]:
-    """Masks of the sPyNNaker projections one listed projection becomes.
-
-    With unsigned synaptic weights, a projection onto the excitatory receptor of a
-    current-based population whose weights have both signs is two projections: the
-    non-negative weights, and the negative ones onto the inhibitory receptor.
-    """
-    every = np.ones(weight.size, dtype=bool)
-    signed = spec.formats.weight_signed
-    current = not network.populations[proj.post].cell_type.conductance_based
-    if signed or proj.receptor_type != "excitatory" or not current or not weight.size:
-        return [every]
-    if weight.min() >= 0 or weight.max() < 0:
-        return [every]
-    return [weight >= 0, weight < 0]
-
-
-def _longest_delay(network: Network, proj: Projection, spec: HwSpec, seed: int) -> float:
-    """The longest delay of ``proj`` in ms, in whole steps (``None`` delays are one step)."""
-    from neurovpr.connectors import FromListConnector
-
-    step = spec.timing.time_step_ms
-    delay = proj.synapse.delay
-    listed = isinstance(proj.connector, FromListConnector) and proj.connector.conn_list.shape[1] == 4
-    if not listed and (delay is None or isinstance(delay, float)):
-        return step if delay is None else _rounded_ms(delay, step)
-    conns = expand_on_chip(network, proj, spec, seed)
-    return float(_delay_steps(conns.delay, step).max()) * step if len(conns) else step
-
-
-def _row_lengths(network: Network, proj: Projection, spec: HwSpec, seed: int, n_post_atoms: int,
-                 max_supported_ms: float, extended: bool) -> tuple[list[_Rows], list[int]]:
-    """Longest rows onto a post core of ``n_post_atoms`` (``get_max_row_info``) of each
-    sPyNNaker projection ``proj`` becomes (two for a list of signed currents), and the
-    longest row of each onto a core of the per-core maximum over all delays (the estimate
-    ``n_synapse_cores_required`` uses; none for an empty list, which sPyNNaker never gets).
-
-    Synapses with delays up to ``max_supported_ms`` go to the undelayed matrix. When the
-    edge from ``proj.pre`` has a delay extension (``extended``), those from
-    ``max_supported_ms`` on are counted for the delay-extension matrix: sPyNNaker starts
-    that range at ``max_supported_ms`` plus the smallest double, which rounds back to
-    ``max_supported_ms``, so a delay of exactly that many steps counts in both. Explicit
-    lists are counted per (source, post core) as
-    ``FromListConnector.get_n_connections_from_pre_vertex_maximum`` does.
-    """
-    step = spec.timing.time_step_ms
-    per_core = spec.core.max_neurons
-    if _native(proj):
-        delay = _rounded_ms(proj.synapse.delay, step) if proj.synapse.delay is not None else step
-        all_to_all = isinstance(proj.connector, AllToAllConnector)
-        n = n_post_atoms if all_to_all else 1
-        rows = _Rows(undelayed=n if delay <= max_supported_ms else 0,
-                     delayed=n if extended and delay >= max_supported_ms else 0)
-        return [rows], [per_core if all_to_all else 1]
-    conns = expand_on_chip(network, proj, spec, seed)
-    delay = _delay_steps(conns.delay, step) * step
-    out, events = [], []
-    for part in _signed_parts(network, proj, conns.weight, spec):
-        rows = []
-        for mask in (part & (delay <= max_supported_ms), part & (delay >= max_supported_ms) & extended):
-            rows.append(_list_row_max(conns.pre[mask], conns.post[mask] // n_post_atoms) if mask.any() else 0)
-        out.append(_Rows(undelayed=rows[0], delayed=rows[1]))
-        if part.any():
-            events.append(_list_row_max(conns.pre[part], conns.post[part] // per_core))
-    return out, events
-
-
-def _group(values: np.ndarray, order_by: np.ndarray) -> list[np.ndarray]:
-    """Index chunks as ``FromListConnector.__numpy_group`` makes them.
-
-    sPyNNaker 7.4.1 computes the split points on the list sorted by the column but
-    splits the list in its original order, so an unsorted list is cut into chunks of
-    the group sizes rather than into groups. Reproduced as is: it decides the row length
-    sPyNNaker reserves.
-    """
-    split_points = np.unique(np.sort(order_by), return_index=True)[1][1:]
-    return np.array_split(values, split_points)
-
-
-def _list_row_max(pre: np.ndarray, core: np.ndarray) -> int:
-    """Longest row of an explicit list per (source, post core), as sPyNNaker estimates it
-    (``FromListConnector.get_n_connections_from_pre_vertex_maximum``)."""
-    idx = np.arange(pre.size)
-    best = 0
-    for chunk in _group(idx, pre):
-        for sub in _group(chunk, core[chunk]):
-            best = max(best, sub.size)
-    return best
-
-
-def _row_words(n_synapses: int, plastic: bool, rules: SpinnakerRules) -> int:
-    """Words of a row of ``n_synapses`` (static: one word each; STDP: half-words and a header)."""
-    if n_synapses == 0:
-        return 0
-    if not plastic:
-        return n_synapses
-    fixed = -(-n_synapses * rules.fixed_half_words_per_synapse // 2)
-    plastic_bytes = rules.plastic_header_bytes + 2 * rules.plastic_half_words_per_synapse * n_synapses
-    return fixed + -(-plastic_bytes // rules.bytes_per_word)
 
 
 class _Placer:
@@ -349,10 +206,10 @@ def _direct_poisson(network: Network, proj: Projection, spec: HwSpec, n_out: dic
     population of its size, static, with a delay of one step."""
     pre, post = network.populations[proj.pre], network.populations[proj.post]
     if not (isinstance(pre.cell_type, SpikeSourcePoisson) and n_out[proj.pre] == 1 and pre.size == post.size
-            and isinstance(proj.connector, OneToOneConnector) and _native(proj) and not proj.plastic):
+            and isinstance(proj.connector, OneToOneConnector) and native_connector(proj) and not proj.plastic):
         return False
     delay = proj.synapse.delay  # one float (a native connector)
-    return delay is None or bool(_delay_steps(delay, spec.timing.time_step_ms) <= 1)
+    return delay is None or bool(delay_steps(delay, spec.timing.time_step_ms) <= 1)
 
 
 def _synapse_cores(network: Network, spec: HwSpec, projs: list[Projection], events: dict[str, list[int]],
@@ -448,7 +305,7 @@ def partition_spinnaker(network: Network, spec: HwSpec, *, seed: int = 0) -> Par
         slots = 2 ** (rules.ring_buffer_bits - (n_bits(max_atoms[name]) + type_bits))
         pre_order = list(dict.fromkeys(p.pre for p in incoming[name]))
         projs = sorted(incoming[name], key=lambda p: pre_order.index(p.pre))
-        delays = [_longest_delay(network, p, spec, seed) for p in projs]
+        delays = [longest_delay(network, p, spec, seed) for p in projs]
         support = min(2 ** n_bits(math.ceil(max(delays, default=step) / step - 1e-9)), slots)
         max_ms = support * step
         plan[name] = (max_ms, list(zip(projs, delays, strict=True)))
@@ -475,10 +332,10 @@ def partition_spinnaker(network: Network, spec: HwSpec, *, seed: int = 0) -> Par
             n_sub = max_atoms[proj.pre]
             n_edges = -(-pops[proj.pre].size // n_sub)
             stages = delay_pre.get(proj.pre, 0)
-            parts, events[proj.name] = _row_lengths(network, proj, spec, seed, max_atoms[name], max_ms,
+            parts, events[proj.name] = row_lengths(network, proj, spec, seed, max_atoms[name], max_ms,
                                                     (proj.pre, name) in extended)
             for n_syn, n_stage in [pair for r in parts for pair in ((r.undelayed, 1), (r.delayed, stages))]:
-                words = _row_words(n_syn, proj.plastic, rules)
+                words = row_words(n_syn, proj.plastic, rules)
                 if words > rules.max_row_words:
                     violations.append(
                         Violation(limit="synaptic row length", where=proj.name, value=words,
@@ -490,7 +347,7 @@ def partition_spinnaker(network: Network, spec: HwSpec, *, seed: int = 0) -> Par
                     continue
                 size = n_sub * (words + rules.row_header_words) * rules.bytes_per_word * n_stage
                 for _ in range(n_edges):
-                    address = _align(address, rules) + size
+                    address = align_block(address, rules) + size
         matrix[name] = address
 
     # Below split_core_below_ms: synapse cores per population and Poisson sources on its chips.

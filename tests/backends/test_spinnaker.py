@@ -240,7 +240,7 @@ def test_unmappable_features_are_refused_by_name(build, words) -> None:
 def test_connector_rule_is_the_fit_checkers() -> None:
     """sPyNNaker's own connectors exactly where they make the canonical synapses, as the checker assumes."""
     from neurovpr.backends.spinnaker.translation import signed_parts, uses_native_connector
-    from neurovpr.hardware.spinnaker import _native
+    from neurovpr.hardware.spinnaker_rows import native_connector as _native
 
     net = nv.Network("rule")
     net.add_population("s", 4, nv.SpikeSourcePoisson(rate=1.0))

@@ -196,7 +196,7 @@ def test_explicit_list_rows_follow_spynnaker_estimate():
     where sPyNNaker 7.4.1 groups the list in its original order and differs from the true count."""
     from spynnaker.pyNN.models.neural_projections.connectors import FromListConnector
 
-    from neurovpr.hardware.spinnaker import _list_row_max
+    from neurovpr.hardware.spinnaker_rows import list_row_max as _list_row_max
 
     rng = np.random.default_rng(0)
     differs = 0
