@@ -106,10 +106,15 @@ def _member_key(args: argparse.Namespace, settings: TrainingSettings, reference:
     return reference_digest(np.frombuffer(json.dumps(parts, sort_keys=True).encode(), dtype=np.uint8)[None, :])
 
 
+def _machine() -> str:
+    """The machine a member was computed on, as the results name it."""
+    return f"{platform.machine()}, {os.cpu_count()} CPUs"
+
+
 def _save_member(folder: Path, member: int, sim: np.ndarray, key: str, info: dict) -> None:
     """``similarity/m<member>.npz``: the matrix, its key, the run's timing per module and the machine."""
     timing = np.array([float(info[k]) for k in _TIMING_KEYS])
-    machine = f"{platform.machine()}, {os.cpu_count()} CPUs"
+    machine = _machine()
     buf = io.BytesIO()
     np.savez_compressed(buf, similarity=sim.astype(np.float32), key=np.str_(key), timing=timing, machine=np.str_(machine))
     atomic_write_bytes(folder / f"m{member:02d}.npz", buf.getvalue())
@@ -179,10 +184,12 @@ def main() -> int:
         rows.update(first["baselines"])
         table[seq_len] = {name: {"R@1": m["R@1"], "R@5": m["R@5"]} for name, m in rows.items()}
 
-    n_train = float(np.mean([t["train_seconds_per_module"] for t in timing]))
-    n_cpu = float(np.mean([t["train_cpu_seconds_per_module"] for t in timing]))
+    # the timing summary comes from the members computed on this machine (all members if none was)
+    here = [t for t in timing if t["machine"] == _machine()] or timing
+    n_train = float(np.mean([t["train_seconds_per_module"] for t in here]))
+    n_cpu = float(np.mean([t["train_cpu_seconds_per_module"] for t in here]))
     per_image = n_cpu / (args.epochs * MODULE)
-    rec_per_image = float(np.mean([t["record_cpu_seconds_per_module"] for t in timing])) / args.places
+    rec_per_image = float(np.mean([t["record_cpu_seconds_per_module"] for t in here])) / args.places
     full_module_cpu = FULL_EPOCHS * MODULE * per_image + FULL_PLACES * rec_per_image
     out = {
         "data": str(data),
@@ -195,6 +202,8 @@ def main() -> int:
         "per_member": {s: results[ensembles[-1]]["by_seq_len"][s]["members"] for s in map(str, seq_lens)},
         "per_member_timing": timing,
         "timing": {
+            "machine": here[0]["machine"],
+            "members_timed": len(here),
             "train_seconds_per_module_wall": n_train,
             "train_seconds_per_module_cpu": n_cpu,
             "record_seconds_per_module_cpu": rec_per_image * args.places,
@@ -222,7 +231,8 @@ def _print(out: dict, seq_lens: list[int]) -> None:
         print(f"{name:<28}{cells}")
     t = out["timing"]
     print(
-        f"\ntraining one module ({MODULE} places): {t['train_seconds_per_module_wall']:.1f} s wall, "
+        f"\ntraining one module ({MODULE} places; {t['members_timed']} member(s) on {t['machine']}): "
+        f"{t['train_seconds_per_module_wall']:.1f} s wall, "
         f"{t['train_seconds_per_module_cpu']:.1f} s CPU ({t['cpu_seconds_per_training_image']} s CPU per training image); "
         f"full {FULL_PLACES}-place, {FULL_EPOCHS}-epoch run: about {t['full_run_estimate_cpu_hours_per_member']} CPU hours "
         f"per member; this run: {t['total_wall_seconds']} s wall on {out['workers']} workers"
