@@ -251,8 +251,9 @@ def train_run(
     # without extra traverses the fingerprint is the one of single-traverse runs (they stay resumable)
     extra_part = (extra_digests,) if extras else ()
     prints = [_digest(cfg, data_digest, j.places, j.seed, j.name, *extra_part) for j in plan]
+    n_chosen = sum(1 for j in plan if j.member in chosen)
     todo = [i for i, j in enumerate(plan) if j.member in chosen and not _finished(run_dir, j, prints[i])]
-    skipped = sum(1 for j in plan if j.member in chosen) - len(todo)
+    skipped = n_chosen - len(todo)
     if max_modules is not None:
         todo = todo[:max_modules]
     _modules_dir(run_dir).mkdir(parents=True, exist_ok=True)
@@ -268,7 +269,7 @@ def train_run(
     shared = np.concatenate([images, *extras], axis=0) if extras else images
     jobs = [(cfg, f"modular_snn_{plan[i].name}", plan[i].places, plan[i].seed, prints[i], n_traverses) for i in todo]
     start = time.perf_counter()
-    bar = _bar(len(todo) + skipped, skipped, "training modules", progress)
+    bar = _bar(n_chosen, skipped, "training modules", progress)
     try:
         run_jobs(train_job, shared, jobs, write, workers=workers, scheduler=scheduler, progress=bar)
     finally:
