@@ -19,8 +19,8 @@ near-identical frames in a station, which no method can tell apart).
 Members on several machines. Every member's modules are seeded by the master seed and
 the member index alone, and each member's similarity matrix is saved as
 ``similarity/m<member>.npz`` with the digests of its data and settings. ``--only-members
-3,4`` trains and evaluates just those members of the ``--members`` ensemble and saves
-their matrices; ``--combine`` then evaluates the ensembles from the saved matrices of all
+3,4`` trains just those members of the ``--members`` ensemble, shows them the query images
+and saves their matrices; ``--combine`` then evaluates the ensembles from the saved matrices of all
 members (copied into one ``--out``), refusing any whose data, settings or seed differ.
 
 Usage (from the repository root)::
