@@ -190,7 +190,8 @@ def main() -> int:
     n_cpu = float(np.mean([t["train_cpu_seconds_per_module"] for t in here]))
     per_image = n_cpu / (args.epochs * MODULE)
     rec_per_image = float(np.mean([t["record_cpu_seconds_per_module"] for t in here])) / args.places
-    full_module_cpu = FULL_EPOCHS * MODULE * per_image + FULL_PLACES * rec_per_image
+    # a module of the full run: its training, then every reference image and every query image
+    full_module_cpu = FULL_EPOCHS * MODULE * per_image + 2 * FULL_PLACES * rec_per_image
     out = {
         "data": str(data),
         "subset": f"{_SUBSETS[args.subset].format(n=args.places)} (reference = summer, query = winter), {args.epochs} epochs, "
