@@ -37,6 +37,7 @@ resumable with ``--resume``) to ``--out``.
 from __future__ import annotations
 
 import argparse
+import hashlib
 import io
 import json
 import os
@@ -103,7 +104,7 @@ _TIMING_KEYS = ("train_seconds_per_module", "train_cpu_seconds_per_module", "rec
 def _member_key(args: argparse.Namespace, settings: TrainingSettings, reference: np.ndarray, query: np.ndarray) -> str:
     """What a saved member matrix must match to join an ensemble: data, settings, seed."""
     parts = [settings.as_dict(), reference_digest(reference), reference_digest(query), args.seed, args.subset, args.places]
-    return reference_digest(np.frombuffer(json.dumps(parts, sort_keys=True).encode(), dtype=np.uint8)[None, :])
+    return hashlib.sha256(json.dumps(parts, sort_keys=True).encode() + b"\x00").hexdigest()
 
 
 def _machine() -> str:
