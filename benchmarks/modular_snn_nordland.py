@@ -30,8 +30,9 @@ Usage (from the repository root)::
     python benchmarks/modular_snn_nordland.py --members 5 --only-members 3,4   # on another machine
     python benchmarks/modular_snn_nordland.py --members 5 --combine            # after copying similarity/
 
-Writes ``results.json``, the members' matrices (``similarity/``) and the run (``run/``,
-resumable with ``--resume``) to ``--out``.
+Writes ``results.json``, PNG plots of the largest ensemble at sequence lengths 1 and the
+longest (distance matrix, precision-recall and Recall@N curves, ``plots/``), the members'
+matrices (``similarity/``) and the run (``run/``, resumable with ``--resume``) to ``--out``.
 """
 
 from __future__ import annotations
@@ -53,7 +54,7 @@ from neurovpr.fileio import atomic_write_bytes, atomic_write_text
 from neurovpr.models.modular_snn import TrainingSettings, member_similarities, query_responses, train_run
 from neurovpr.models.modular_snn.parallel import default_workers
 from neurovpr.models.modular_snn.plugin import load_traverse
-from neurovpr.models.modular_snn.report import evaluate_similarities
+from neurovpr.models.modular_snn.report import evaluate_similarities, write_plots
 from neurovpr.models.modular_snn.runs import describe_plan, reference_digest
 from neurovpr.paths import shared_datasets
 
@@ -219,6 +220,11 @@ def main() -> int:
         },
     }
     args.out.mkdir(parents=True, exist_ok=True)
+    # distance matrix, PR curves and Recall@N of the largest ensemble, without and with the longest sequence
+    biggest = ensembles[-1]
+    plot_lens = sorted({1, max(seq_lens)})
+    plots = [write_plots(results[biggest], args.out / "plots", n, tag=f"ensemble{biggest}_L{n}") for n in plot_lens]
+    out["plots"] = sorted(str(f.relative_to(args.out)) for files in plots for f in files.values())
     atomic_write_text(args.out / "results.json", json.dumps(out, indent=1))
     _print(out, seq_lens)
     return 0
