@@ -38,7 +38,6 @@ matrices (``similarity/``) and the run (``run/``, resumable with ``--resume``) t
 from __future__ import annotations
 
 import argparse
-import hashlib
 import io
 import json
 import os
@@ -55,7 +54,7 @@ from neurovpr.models.modular_snn import TrainingSettings, member_similarities, q
 from neurovpr.models.modular_snn.parallel import default_workers
 from neurovpr.models.modular_snn.plugin import load_traverse
 from neurovpr.models.modular_snn.report import evaluate_similarities, write_plots
-from neurovpr.models.modular_snn.runs import describe_plan, reference_digest
+from neurovpr.models.modular_snn.runs import describe_plan, digest, reference_digest
 from neurovpr.paths import shared_datasets
 
 FULL_PLACES, FULL_EPOCHS, MODULE = 2400, 30, 25
@@ -105,7 +104,7 @@ _TIMING_KEYS = ("train_seconds_per_module", "train_cpu_seconds_per_module", "rec
 def _member_key(args: argparse.Namespace, settings: TrainingSettings, reference: np.ndarray, query: np.ndarray) -> str:
     """What a saved member matrix must match to join an ensemble: data, settings, seed."""
     parts = [settings.as_dict(), reference_digest(reference), reference_digest(query), args.seed, args.subset, args.places]
-    return hashlib.sha256(json.dumps(parts, sort_keys=True).encode() + b"\x00").hexdigest()
+    return digest(parts)
 
 
 def _machine() -> str:

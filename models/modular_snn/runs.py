@@ -64,6 +64,7 @@ __all__ = [
     "ModulePlan",
     "make_plan",
     "describe_plan",
+    "digest",
     "reference_digest",
     "train_run",
     "query_responses",
@@ -123,7 +124,12 @@ def describe_plan(n_places: int, module_size: int) -> str:
     )
 
 
-def _digest(*parts: Any) -> str:
+def digest(*parts: Any) -> str:
+    """SHA-256 of ``parts`` in order: arrays by their bytes, anything else as sorted-key JSON.
+
+    The fingerprint of run files (modules, cached query responses); a caller's own key
+    built with it changes exactly when one of its parts does.
+    """
     h = hashlib.sha256()
     for part in parts:
         h.update(part.tobytes() if isinstance(part, np.ndarray) else json.dumps(part, sort_keys=True).encode())
@@ -133,7 +139,7 @@ def _digest(*parts: Any) -> str:
 
 def reference_digest(reference: np.ndarray) -> str:
     """SHA-256 of preprocessed reference images as the run stores them (``uint8``, one row per image)."""
-    return _digest(_as_rows(reference))
+    return digest(_as_rows(reference))
 
 
 def _as_rows(images: np.ndarray) -> np.ndarray:
@@ -246,11 +252,11 @@ def train_run(
         raise nv.ValidationError(f"{run_dir} already holds a run; pass --resume to continue it or choose another --out.")
     plan = make_plan(n_ref, settings.module_size, members, seed, place_order)
     cfg = json.dumps(settings.as_dict(), sort_keys=True)
-    data_digest = _digest(images)
-    extra_digests = [_digest(extra) for extra in extras]
+    data_digest = digest(images)
+    extra_digests = [digest(extra) for extra in extras]
     # without extra traverses the fingerprint is the one of single-traverse runs (they stay resumable)
     extra_part = (extra_digests,) if extras else ()
-    prints = [_digest(cfg, data_digest, j.places, j.seed, j.name, *extra_part) for j in plan]
+    prints = [digest(cfg, data_digest, j.places, j.seed, j.name, *extra_part) for j in plan]
     n_chosen = sum(1 for j in plan if j.member in chosen)
     todo = [i for i, j in enumerate(plan) if j.member in chosen and not _finished(run_dir, j, prints[i])]
     skipped = n_chosen - len(todo)
@@ -375,7 +381,7 @@ def query_responses(
     settings = TrainingSettings.from_dict(run_info["settings"])
     cfg = json.dumps(settings.as_dict(), sort_keys=True)
     images = _as_rows(query)
-    q_digest = _digest(images)
+    q_digest = digest(images)
     cache = run_dir / "query" / backend
     out: dict[str, np.ndarray] = {}
     jobs, names, keys = [], [], []
@@ -385,7 +391,7 @@ def query_responses(
         if not h5.is_file():
             raise nv.ValidationError(f"{h5} is missing; the run directory is incomplete.")
         net_bytes = h5.read_bytes()
-        key = _digest(q_digest, backend, hashlib.sha256(net_bytes).hexdigest())
+        key = digest(q_digest, backend, hashlib.sha256(net_bytes).hexdigest())
         cached = cache / f"{name}.npz"
         if cached.is_file():
             rec = read_npz(cached)
