@@ -40,9 +40,9 @@ from typing import Any
 
 import numpy as np
 
+from neurovpr.apps.compare import compare_model
+from neurovpr.apps.compare_plots import plot_comparison
 from neurovpr.cli.train_cmd import parse_train_arguments
-from neurovpr.compare import compare_model
-from neurovpr.compare_plots import plot_comparison
 from neurovpr.data.generic import open_traverse, write_generic
 from neurovpr.fileio import atomic_write_text
 from neurovpr.paths import shared_datasets

@@ -13,26 +13,6 @@ The public API follows PyNN's vocabulary::
     sim.spike_counts("exc")
 """
 
-from neurovpr.cells import (
-    IF_cond_exp,
-    IF_cond_exp_adaptive,
-    IF_curr_exp,
-    IF_curr_exp_ca2_adaptive,
-    SoftLIF,
-    SpikeSourceArray,
-    SpikeSourcePoisson,
-)
-from neurovpr.compiler import compile
-from neurovpr.connectivity import Connections, expand
-from neurovpr.connectors import (
-    AllToAllConnector,
-    ConvolutionConnector,
-    FixedNumberPreConnector,
-    FixedProbabilityConnector,
-    FromListConnector,
-    OneToOneConnector,
-)
-from neurovpr.distributions import Normal, Uniform
 from neurovpr.errors import (
     BackendUnavailableError,
     FileFormatError,
@@ -41,11 +21,28 @@ from neurovpr.errors import (
     UnsupportedFeatureError,
     ValidationError,
 )
-from neurovpr.network import Network, Population, Projection
-from neurovpr.registry import backend_infos, get_backend
-from neurovpr.serialization import load, save
-from neurovpr.simulation import Simulation
-from neurovpr.synapses import (
+from neurovpr.ir.cells import (
+    IF_cond_exp,
+    IF_cond_exp_adaptive,
+    IF_curr_exp,
+    IF_curr_exp_ca2_adaptive,
+    SoftLIF,
+    SpikeSourceArray,
+    SpikeSourcePoisson,
+)
+from neurovpr.ir.connectivity import Connections, expand
+from neurovpr.ir.connectors import (
+    AllToAllConnector,
+    ConvolutionConnector,
+    FixedNumberPreConnector,
+    FixedProbabilityConnector,
+    FromListConnector,
+    OneToOneConnector,
+)
+from neurovpr.ir.distributions import Normal, Uniform
+from neurovpr.ir.network import Network, Population, Projection
+from neurovpr.ir.serialization import load, save
+from neurovpr.ir.synapses import (
     AdditiveWeightDependence,
     DiehlCookSTDP,
     MultiplicativeWeightDependence,
@@ -53,6 +50,9 @@ from neurovpr.synapses import (
     StaticSynapse,
     STDPMechanism,
 )
+from neurovpr.runtime.compiler import compile
+from neurovpr.runtime.registry import backend_infos, get_backend
+from neurovpr.runtime.simulation import Simulation
 
 __version__ = "0.1.0"
 

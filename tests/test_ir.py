@@ -10,8 +10,8 @@ import pytest
 from scipy.signal import correlate2d
 
 import neurovpr as nv
-from neurovpr.connectivity import projection_rng
 from neurovpr.errors import ValidationError
+from neurovpr.ir.connectivity import projection_rng
 
 
 def _raises(message: str) -> pytest.RaisesContext:

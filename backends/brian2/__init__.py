@@ -2,7 +2,7 @@
 
 Every population becomes a ``NeuronGroup`` (LIF models), ``PoissonGroup`` or
 ``SpikeGeneratorGroup``, every projection one ``Synapses`` object connected with the
-canonical connection list of :func:`neurovpr.connectivity.expand`, so connections,
+canonical connection list of :func:`neurovpr.ir.connectivity.expand`, so connections,
 weights and delays equal every other backend's for the same seed. Equations come from
 the fixed templates in :mod:`.translation`; no string from a network or a model file
 reaches Brian2's code generation.
@@ -46,8 +46,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from neurovpr.backend import Backend
 from neurovpr.errors import ValidationError
+from neurovpr.runtime.backend import Backend
 
 from .capabilities import CAPABILITIES
 

@@ -20,7 +20,8 @@ from typing import Any
 import brian2 as b2
 import numpy as np
 
-from neurovpr.cells import (
+from neurovpr.errors import SimulationError, UnsupportedFeatureError
+from neurovpr.ir.cells import (
     IF_cond_exp,
     IF_cond_exp_adaptive,
     IF_curr_exp,
@@ -28,10 +29,9 @@ from neurovpr.cells import (
     SpikeSourceArray,
     SpikeSourcePoisson,
 )
-from neurovpr.connectivity import Connections
-from neurovpr.errors import SimulationError, UnsupportedFeatureError
-from neurovpr.network import Population, Projection
-from neurovpr.synapses import DiehlCookSTDP, StaticSynapse, STDPMechanism
+from neurovpr.ir.connectivity import Connections
+from neurovpr.ir.network import Population, Projection
+from neurovpr.ir.synapses import DiehlCookSTDP, StaticSynapse, STDPMechanism
 
 from .translation import RECORD_MAP, TAU_SEPARATION, NeuronModel, SynapseModel, neuron_model, synapse_model
 
@@ -103,7 +103,7 @@ class ProjectionHandle:
     Attributes
     ----------
     pre, post
-        Canonical connection indices (from :func:`neurovpr.connectivity.expand`).
+        Canonical connection indices (from :func:`neurovpr.ir.connectivity.expand`).
     order
         ``order[k]`` is Brian2's synapse index of canonical connection ``k``.
     out_degree

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from types import MappingProxyType
 
-from neurovpr.backend import Capabilities
+from neurovpr.runtime.backend import Capabilities
 
 CAPABILITIES = Capabilities(
     cell_types=frozenset(

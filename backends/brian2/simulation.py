@@ -22,12 +22,12 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.cells import SpikeSourceArray, SpikeSourcePoisson
-from neurovpr.connectivity import expand
 from neurovpr.errors import BackendUnavailableError, SimulationError, UnsupportedFeatureError
-from neurovpr.network import Network
+from neurovpr.ir.cells import SpikeSourceArray, SpikeSourcePoisson
+from neurovpr.ir.connectivity import expand
+from neurovpr.ir.network import Network
 from neurovpr.paths import cache_dir
-from neurovpr.simulation import Simulation
+from neurovpr.runtime.simulation import Simulation
 
 __all__ = ["Brian2Simulation", "TARGETS"]
 

@@ -44,15 +44,15 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.cells import (
+from neurovpr.errors import UnsupportedFeatureError
+from neurovpr.ir.cells import (
     IF_cond_exp,
     IF_cond_exp_adaptive,
     IF_curr_exp,
     IF_curr_exp_ca2_adaptive,
     NeuronType,
 )
-from neurovpr.errors import UnsupportedFeatureError
-from neurovpr.synapses import (
+from neurovpr.ir.synapses import (
     DiehlCookSTDP,
     MultiplicativeWeightDependence,
     StaticSynapse,

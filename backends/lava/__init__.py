@@ -17,8 +17,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from neurovpr.backend import Backend
 from neurovpr.errors import BackendUnavailableError, ValidationError
+from neurovpr.runtime.backend import Backend
 
 from .capabilities import LAVA_CAPABILITIES, LAVA_FIXED_CAPABILITIES, network_problems
 

@@ -29,9 +29,9 @@ from typing import Any
 import numpy as np
 import scipy.sparse
 
-from neurovpr.connectivity import Connections
-from neurovpr.connectors import ConvolutionConnector
-from neurovpr.network import Network, Projection
+from neurovpr.ir.connectivity import Connections
+from neurovpr.ir.connectors import ConvolutionConnector
+from neurovpr.ir.network import Network, Projection
 
 from .compat import import_lava
 from .translation import LavaLIF, delay_steps, fixed_weights, lava_lif, weight_scale

@@ -14,10 +14,10 @@ from types import MappingProxyType
 
 import numpy as np
 
-from neurovpr.backend import Capabilities
-from neurovpr.cells import IF_curr_exp
-from neurovpr.connectivity import Connections
-from neurovpr.network import Network
+from neurovpr.ir.cells import IF_curr_exp
+from neurovpr.ir.connectivity import Connections
+from neurovpr.ir.network import Network
+from neurovpr.runtime.backend import Capabilities
 
 from .translation import delay_steps, lava_lif, lif_problems
 

@@ -9,11 +9,11 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.connectivity import expand
-from neurovpr.connectors import ConvolutionConnector
 from neurovpr.errors import SimulationError, UnsupportedFeatureError, ValidationError
-from neurovpr.network import Network
-from neurovpr.simulation import Simulation
+from neurovpr.ir.connectivity import expand
+from neurovpr.ir.connectors import ConvolutionConnector
+from neurovpr.ir.network import Network
+from neurovpr.runtime.simulation import Simulation
 
 from .capabilities import compile_problems
 from .compat import import_lava
@@ -47,7 +47,7 @@ class LavaSimulation(Simulation):
     Parameters
     ----------
     network, backend, dt, seed
-        As for :class:`~neurovpr.simulation.Simulation`.
+        As for :class:`~neurovpr.runtime.simulation.Simulation`.
     fixed
         Select the ``fixed_pt`` (bit-accurate Loihi 2) process models instead of ``floating_pt``.
     buffer_steps

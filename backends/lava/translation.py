@@ -48,8 +48,8 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.cells import IF_curr_exp
-from neurovpr.network import Population
+from neurovpr.ir.cells import IF_curr_exp
+from neurovpr.ir.network import Population
 
 __all__ = [
     "LavaLIF",

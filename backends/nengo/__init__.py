@@ -16,8 +16,8 @@ from __future__ import annotations
 import warnings
 from typing import Any
 
-from neurovpr.backend import Backend
 from neurovpr.errors import ValidationError
+from neurovpr.runtime.backend import Backend
 
 from .capabilities import NENGO_CAPABILITIES, NENGO_LOIHI_CAPABILITIES, network_problems
 

@@ -20,11 +20,11 @@ import nengo
 import numpy as np
 import scipy.sparse
 
-from neurovpr.cells import IF_curr_exp
-from neurovpr.connectivity import Connections
-from neurovpr.connectors import ConvolutionConnector
 from neurovpr.errors import UnsupportedFeatureError
-from neurovpr.network import Network, Projection
+from neurovpr.ir.cells import IF_curr_exp
+from neurovpr.ir.connectivity import Connections
+from neurovpr.ir.connectors import ConvolutionConnector
+from neurovpr.ir.network import Network, Projection
 
 from .translation import LIFMapping, conv_padding_mode, delay_steps, filter_delay, lif_mapping, transform_scale
 

@@ -16,11 +16,11 @@ from types import MappingProxyType
 
 import numpy as np
 
-from neurovpr.backend import Capabilities
-from neurovpr.cells import IF_curr_exp
-from neurovpr.connectivity import Connections
-from neurovpr.connectors import ConvolutionConnector
-from neurovpr.network import Network
+from neurovpr.ir.cells import IF_curr_exp
+from neurovpr.ir.connectivity import Connections
+from neurovpr.ir.connectors import ConvolutionConnector
+from neurovpr.ir.network import Network
+from neurovpr.runtime.backend import Capabilities
 
 from .translation import conv_padding_mode, delay_steps, lif_mapping, lif_problems
 

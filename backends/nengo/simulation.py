@@ -9,11 +9,11 @@ from typing import Any
 import nengo
 import numpy as np
 
-from neurovpr.connectivity import expand
-from neurovpr.connectors import ConvolutionConnector
 from neurovpr.errors import SimulationError, UnsupportedFeatureError, ValidationError
-from neurovpr.network import Network
-from neurovpr.simulation import Simulation
+from neurovpr.ir.connectivity import expand
+from neurovpr.ir.connectors import ConvolutionConnector
+from neurovpr.ir.network import Network
+from neurovpr.runtime.simulation import Simulation
 
 from .build import BuiltNetwork, build_network, quiet_nengo
 from .capabilities import delay_problems
@@ -29,7 +29,7 @@ class NengoSimulation(Simulation):
     Parameters
     ----------
     network, backend, dt, seed
-        As for :class:`~neurovpr.simulation.Simulation`.
+        As for :class:`~neurovpr.runtime.simulation.Simulation`.
     loihi
         Run on NengoLoihi's emulator (``target="sim"``) instead of ``nengo.Simulator``.
     hardware

@@ -16,8 +16,8 @@ import zlib
 
 import numpy as np
 
-from neurovpr.cells import SpikeSourceArray, SpikeSourcePoisson
-from neurovpr.network import Population
+from neurovpr.ir.cells import SpikeSourceArray, SpikeSourcePoisson
+from neurovpr.ir.network import Population
 
 __all__ = ["SourceState"]
 

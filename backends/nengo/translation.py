@@ -47,9 +47,9 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.cells import IF_curr_exp
-from neurovpr.connectors import ConvolutionConnector
-from neurovpr.network import Population
+from neurovpr.ir.cells import IF_curr_exp
+from neurovpr.ir.connectors import ConvolutionConnector
+from neurovpr.ir.network import Population
 
 __all__ = [
     "LIFMapping",

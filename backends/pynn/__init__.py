@@ -15,9 +15,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from neurovpr.backend import Backend, Capabilities
 from neurovpr.errors import ValidationError
-from neurovpr.network import Network
+from neurovpr.ir.network import Network
+from neurovpr.runtime.backend import Backend, Capabilities
 
 from .capabilities import CAPABILITIES_BRIAN2, CAPABILITIES_NEST, Simulator, feature_problems, type_reason
 

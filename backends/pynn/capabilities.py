@@ -13,10 +13,10 @@ from typing import Literal
 
 import numpy as np
 
-from neurovpr.backend import Capabilities
-from neurovpr.network import Network
+from neurovpr.ir.network import Network
+from neurovpr.ir.synapses import STDPMechanism
 from neurovpr.pynn_names import CELL_TYPES, NOT_STANDARD_PYNN
-from neurovpr.synapses import STDPMechanism
+from neurovpr.runtime.backend import Capabilities
 
 __all__ = ["CAPABILITIES_NEST", "CAPABILITIES_BRIAN2", "Simulator", "feature_problems", "type_reason"]
 

@@ -26,11 +26,11 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.cells import SpikeSourceArray, SpikeSourcePoisson
 from neurovpr.errors import SimulationError
-from neurovpr.network import Network
+from neurovpr.ir.cells import SpikeSourceArray, SpikeSourcePoisson
+from neurovpr.ir.network import Network
 from neurovpr.pynn_names import RECORDABLES
-from neurovpr.simulation import Simulation
+from neurovpr.runtime.simulation import Simulation
 
 from .build import (
     Built,

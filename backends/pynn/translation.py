@@ -3,7 +3,7 @@
 Nothing here imports PyNN; the result is a :class:`NetworkPlan` of plain values that
 :mod:`.build` turns into PyNN objects. Every projection becomes one or two PyNN
 projections ("parts") with a ``FromListConnector`` holding the canonical connections
-of :func:`neurovpr.connectivity.expand`, so connections and initial weights are
+of :func:`neurovpr.ir.connectivity.expand`, so connections and initial weights are
 those of every other backend for the same seed. Each part keeps the canonical index
 of each of its connections, which maps PyNN's order back to the canonical one.
 
@@ -25,12 +25,12 @@ from typing import Any, Literal
 
 import numpy as np
 
-from neurovpr.connectivity import Connections, expand
 from neurovpr.errors import UnsupportedFeatureError
-from neurovpr.network import Network, Population, Projection
-from neurovpr.node import field_values
+from neurovpr.ir.connectivity import Connections, expand
+from neurovpr.ir.network import Network, Population, Projection
+from neurovpr.ir.node import field_values
+from neurovpr.ir.synapses import STDPMechanism
 from neurovpr.pynn_names import CELL_PARAMETERS, CELL_TYPES, INITIAL_VALUES, TIMING_DEPENDENCES, WEIGHT_DEPENDENCES
-from neurovpr.synapses import STDPMechanism
 
 __all__ = [
     "PopulationPlan",

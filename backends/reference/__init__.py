@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from neurovpr.backend import Backend
+from neurovpr.runtime.backend import Backend
 
 from .capabilities import CAPABILITIES
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from types import MappingProxyType
 
-from neurovpr.backend import Capabilities
+from neurovpr.runtime.backend import Capabilities
 
 #: Hwspec names whose number formats the backend emulates, and the arithmetic used for each
 #: (backends/reference/fixed_point.py; docs/number_formats.md): Loihi 1 as NengoLoihi's emulator

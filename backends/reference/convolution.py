@@ -1,6 +1,6 @@
 """Convolutions delivered from their kernel: which projections qualify, and the arrays the kernels read.
 
-A static projection with a :class:`~neurovpr.connectors.ConvolutionConnector`, one delay
+A static projection with a :class:`~neurovpr.ir.connectors.ConvolutionConnector`, one delay
 for all its synapses and, for every kernel element, the same weight on every synapse
 that uses it (always so when the weights come from a kernel) is *structured*: a spike
 of presynaptic neuron ``(c, y, x)`` reaches, for every output position ``(oy, ox)`` whose
@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from neurovpr.connectors import ConvolutionConnector
+from neurovpr.ir.connectors import ConvolutionConnector
 
 # Columns of the per-projection parameter table ``cv_par``.
 (CV_PRE0, CV_C, CV_H, CV_W, CV_O, CV_OH, CV_OW, CV_KH, CV_KW, CV_SH, CV_SW, CV_PH, CV_PW, CV_POST0, CV_DELAY, CV_REC,

@@ -24,9 +24,9 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.cells import IF_cond_exp, IF_curr_exp, IF_curr_exp_ca2_adaptive
 from neurovpr.errors import SimulationError, UnsupportedFeatureError, ValidationError
-from neurovpr.network import Network
+from neurovpr.ir.cells import IF_cond_exp, IF_curr_exp, IF_curr_exp_ca2_adaptive
+from neurovpr.ir.network import Network
 
 from . import kernels_fixed as kf
 from .capabilities import EMULATED_HARDWARE, RECORDABLE_ON_HARDWARE

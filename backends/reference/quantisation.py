@@ -15,11 +15,11 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.cells import IF_cond_exp, IF_curr_exp_ca2_adaptive
-from neurovpr.connectors import ConvolutionConnector
 from neurovpr.errors import UnsupportedFeatureError, ValidationError
 from neurovpr.hardware import partition
-from neurovpr.network import Network
+from neurovpr.ir.cells import IF_cond_exp, IF_curr_exp_ca2_adaptive
+from neurovpr.ir.connectors import ConvolutionConnector
+from neurovpr.ir.network import Network
 
 from . import kernels_fixed as kf
 from .capabilities import EMULATED_HARDWARE

@@ -8,10 +8,10 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.cells import IF_cond_exp_adaptive, SpikeSourceArray, SpikeSourcePoisson
 from neurovpr.errors import ValidationError
-from neurovpr.network import Network
-from neurovpr.simulation import Simulation
+from neurovpr.ir.cells import IF_cond_exp_adaptive, SpikeSourceArray, SpikeSourcePoisson
+from neurovpr.ir.network import Network
+from neurovpr.runtime.simulation import Simulation
 
 from . import kernels
 from .convolution import CV_WOFF

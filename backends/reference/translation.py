@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from neurovpr.cells import (
+from neurovpr.ir.cells import (
     IF_cond_exp,
     IF_cond_exp_adaptive,
     IF_curr_exp,
@@ -26,10 +26,10 @@ from neurovpr.cells import (
     SpikeSourceArray,
     SpikeSourcePoisson,
 )
-from neurovpr.connectivity import expand
-from neurovpr.connectors import ConvolutionConnector
-from neurovpr.network import Network
-from neurovpr.synapses import DiehlCookSTDP, MultiplicativeWeightDependence, STDPMechanism
+from neurovpr.ir.connectivity import expand
+from neurovpr.ir.connectors import ConvolutionConnector
+from neurovpr.ir.network import Network
+from neurovpr.ir.synapses import DiehlCookSTDP, MultiplicativeWeightDependence, STDPMechanism
 
 from .convolution import ConvSpec, conv_spec, merge
 from .delivery import split_static

@@ -16,9 +16,9 @@ from __future__ import annotations
 
 from typing import Any
 
-from neurovpr.backend import Backend
 from neurovpr.errors import ValidationError
-from neurovpr.network import Network
+from neurovpr.ir.network import Network
+from neurovpr.runtime.backend import Backend
 
 from .capabilities import CAPABILITIES, REASONS
 

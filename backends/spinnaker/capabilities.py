@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from types import MappingProxyType
 
-from neurovpr.backend import Capabilities
 from neurovpr.pynn_names import SPYNNAKER_CELL_TYPES
+from neurovpr.runtime.backend import Capabilities
 
 __all__ = ["CAPABILITIES", "RUN_REFUSAL", "REASONS"]
 

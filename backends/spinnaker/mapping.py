@@ -35,7 +35,7 @@ from typing import Any
 
 from neurovpr.errors import NeurovprError, UnsupportedFeatureError, ValidationError
 from neurovpr.hardware.spinnaker import spynnaker_step_us
-from neurovpr.network import Network
+from neurovpr.ir.network import Network
 
 from .capabilities import CAPABILITIES, REASONS
 from .translation import build_network

@@ -14,10 +14,10 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.connectivity import expand
 from neurovpr.errors import SimulationError
-from neurovpr.network import Network
-from neurovpr.simulation import Simulation
+from neurovpr.ir.connectivity import expand
+from neurovpr.ir.network import Network
+from neurovpr.runtime.simulation import Simulation
 
 from .capabilities import RUN_REFUSAL
 from .mapping import map_network

@@ -4,7 +4,7 @@ Populations become sPyNNaker's standard types (``IF_curr_exp``, ``IF_cond_exp``,
 ``SpikeSourcePoisson``, ``SpikeSourceArray``) or ``extra_models.IFCurrExpCa2Adaptive``.
 A projection becomes sPyNNaker's own ``AllToAllConnector`` or ``OneToOneConnector``
 when that connector makes exactly the canonical synapses of
-:func:`neurovpr.connectivity.expand` (:func:`uses_native_connector`: one weight and
+:func:`neurovpr.ir.connectivity.expand` (:func:`uses_native_connector`: one weight and
 one delay for every synapse, and for all-to-all without self-connections, a
 projection of a population onto itself, the only case in which sPyNNaker leaves
 ``i -> i`` out). Every other projection is a ``FromListConnector`` holding the
@@ -28,11 +28,12 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.cells import SpikeSourceArray, SpikeSourcePoisson
-from neurovpr.connectivity import expand
-from neurovpr.connectors import AllToAllConnector, OneToOneConnector
-from neurovpr.network import Network, Population, Projection
-from neurovpr.node import field_values
+from neurovpr.ir.cells import SpikeSourceArray, SpikeSourcePoisson
+from neurovpr.ir.connectivity import expand
+from neurovpr.ir.connectors import AllToAllConnector, OneToOneConnector
+from neurovpr.ir.network import Network, Population, Projection
+from neurovpr.ir.node import field_values
+from neurovpr.ir.synapses import STDPMechanism
 from neurovpr.pynn_names import (
     CELL_PARAMETERS,
     INITIAL_VALUES,
@@ -40,7 +41,6 @@ from neurovpr.pynn_names import (
     TIMING_DEPENDENCES,
     WEIGHT_DEPENDENCES,
 )
-from neurovpr.synapses import STDPMechanism
 
 __all__ = [
     "build_population",

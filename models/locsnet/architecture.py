@@ -36,8 +36,8 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from neurovpr.cells import SoftLIF
 from neurovpr.errors import ValidationError
+from neurovpr.ir.cells import SoftLIF
 
 __all__ = [
     "ConvSpec",

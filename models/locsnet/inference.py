@@ -20,8 +20,8 @@ from typing import Any
 import numpy as np
 
 import neurovpr as nv
-from neurovpr.cells import SoftLIF
 from neurovpr.errors import ValidationError
+from neurovpr.ir.cells import SoftLIF
 
 from .architecture import LAYER_NAMES, Architecture
 from .conversion import INPUT, SpikingParameters, layer_populations

@@ -19,8 +19,8 @@ from typing import Any
 
 import numpy as np
 
+from neurovpr.apps.modelapi import ModelPlugin
 from neurovpr.errors import ValidationError
-from neurovpr.modelapi import ModelPlugin
 
 __all__ = ["LoCSNetPlugin", "MODEL"]
 

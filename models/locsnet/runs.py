@@ -27,9 +27,9 @@ from typing import Any
 import numpy as np
 
 import neurovpr as nv
+from neurovpr.apps.modelapi import read_run_info
 from neurovpr.errors import ValidationError
 from neurovpr.fileio import atomic_write_bytes, atomic_write_text
-from neurovpr.modelapi import read_run_info
 
 from .architecture import Architecture
 from .conversion import SpikingParameters, trained_parameters

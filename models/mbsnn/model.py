@@ -24,7 +24,7 @@ from tqdm.auto import tqdm
 import neurovpr as nv
 from neurovpr.data.events import PNSpikes
 from neurovpr.errors import ValidationError
-from neurovpr.simulation import Simulation
+from neurovpr.runtime.simulation import Simulation
 
 from .network import KC_KC, MBSNNParameters
 

@@ -97,7 +97,7 @@ import numpy as np
 import neurovpr as nv
 from neurovpr.data.events import PNSpikes
 from neurovpr.errors import ValidationError
-from neurovpr.node import IRNode, param
+from neurovpr.ir.node import IRNode, param
 
 __all__ = [
     "MBSNNParameters",

@@ -13,8 +13,8 @@ import argparse
 import sys
 from typing import Any
 
+from neurovpr.apps.modelapi import ModelPlugin
 from neurovpr.errors import ValidationError
-from neurovpr.modelapi import ModelPlugin
 
 from .network import MBSNNParameters
 

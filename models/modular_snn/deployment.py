@@ -63,7 +63,7 @@ from typing import Any
 import numpy as np
 
 import neurovpr as nv
-from neurovpr.connectivity import expand
+from neurovpr.ir.connectivity import expand
 
 from .network import INPUT
 

@@ -25,9 +25,9 @@ from typing import Any
 import numpy as np
 
 import neurovpr as nv
+from neurovpr.apps.modelapi import ModelPlugin, read_run_info
 from neurovpr.data.encoding import RateCoding
 from neurovpr.fileio import atomic_write_text
-from neurovpr.modelapi import ModelPlugin, read_run_info
 
 from .deployment import deployed_network, deployment_form, static_network
 from .network import ModuleParameters

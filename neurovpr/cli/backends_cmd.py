@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import json
 
-from neurovpr.registry import backend_infos
+from neurovpr.runtime.registry import backend_infos
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

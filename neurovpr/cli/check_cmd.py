@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import Any
 
 from neurovpr.errors import ValidationError
-from neurovpr.network import Network
+from neurovpr.ir.network import Network
 
 NETWORK_FILE = "network.h5"
 
@@ -82,7 +82,7 @@ def run_time_step(run_dir: str | Path) -> tuple[float, str] | None:
     ValidationError
         If ``run.json`` is unreadable or the recorded time step is not a positive number.
     """
-    from neurovpr.modelapi import read_run_info
+    from neurovpr.apps.modelapi import read_run_info
 
     path = Path(run_dir) / "run.json"
     if not path.is_file():

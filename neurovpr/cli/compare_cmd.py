@@ -45,8 +45,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Compare, print the table or JSON, write the plot."""
-    from neurovpr.compare import compare_model
-    from neurovpr.compare_plots import plot_comparison
+    from neurovpr.apps.compare import compare_model
+    from neurovpr.apps.compare_plots import plot_comparison
 
     plot = args.plot if args.plot is not None else Path(args.run) / PLOT_FILE
     if plot.suffix.lower() != ".png":

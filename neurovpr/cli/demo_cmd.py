@@ -21,9 +21,9 @@ import time
 from pathlib import Path
 from typing import Any
 
+from neurovpr.apps.modelapi import get_model, read_run_info
 from neurovpr.errors import ValidationError
 from neurovpr.fileio import atomic_write_text
-from neurovpr.modelapi import get_model, read_run_info
 
 #: The query traverse's look (see :class:`neurovpr.data.synthetic.AppearanceChange`).
 _QUERY_LOOK_ARGS = {"season": 0.5, "illumination": 0.7, "contrast": 0.8, "blur_sigma": 0.6, "shift_px": 2, "noise_std": 0.03}

@@ -6,8 +6,8 @@ import argparse
 import json
 from pathlib import Path
 
+from neurovpr.apps.modelapi import get_model, model_names, read_run_info
 from neurovpr.cli.main import _Parser
-from neurovpr.modelapi import get_model, model_names, read_run_info
 
 
 def _common(p: argparse.ArgumentParser) -> None:

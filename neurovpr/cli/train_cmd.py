@@ -7,8 +7,8 @@ import json
 from collections.abc import Sequence
 from pathlib import Path
 
+from neurovpr.apps.modelapi import ModelPlugin, get_model, model_names
 from neurovpr.cli.main import _Parser
-from neurovpr.modelapi import ModelPlugin, get_model, model_names
 
 
 def _common(p: argparse.ArgumentParser) -> None:

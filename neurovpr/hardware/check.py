@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from neurovpr.errors import ValidationError
-from neurovpr.network import Network
+from neurovpr.ir.network import Network
 
 from .hwspec import HwSpec, load_hwspec
 from .partition import Partition, partition

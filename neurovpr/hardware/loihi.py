@@ -27,8 +27,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from tqdm import tqdm
 
-from neurovpr.connectors import AllToAllConnector, ConvolutionConnector
-from neurovpr.network import Network, Projection
+from neurovpr.ir.connectors import AllToAllConnector, ConvolutionConnector
+from neurovpr.ir.network import Network, Projection
 
 from .hwspec import HwSpec, SynapseEncoding
 from .partition import CoreSlice, Partition, Violation, delay_steps, expand_on_chip

@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.connectivity import Connections, expand
-from neurovpr.network import Network, Projection
+from neurovpr.ir.connectivity import Connections, expand
+from neurovpr.ir.network import Network, Projection
 
 from .hwspec import HwSpec
 
@@ -169,7 +169,7 @@ def expand_on_chip(network: Network, proj: Projection, spec: HwSpec, seed: int) 
 
 def _max_delay_ms(proj: Projection, network: Network, spec: HwSpec, seed: int) -> float:
     """The longest delay of a projection in ms, expanding it only when the spec is random."""
-    from neurovpr.connectors import FromListConnector
+    from neurovpr.ir.connectors import FromListConnector
 
     delay = proj.synapse.delay
     listed = isinstance(proj.connector, FromListConnector) and proj.connector.conn_list.shape[1] == 4

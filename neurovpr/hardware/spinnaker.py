@@ -47,9 +47,9 @@ import math
 
 from tqdm import tqdm
 
-from neurovpr.cells import SpikeSourceArray, SpikeSourcePoisson
-from neurovpr.connectors import OneToOneConnector
-from neurovpr.network import Network, Projection
+from neurovpr.ir.cells import SpikeSourceArray, SpikeSourcePoisson
+from neurovpr.ir.connectors import OneToOneConnector
+from neurovpr.ir.network import Network, Projection
 
 from .hwspec import HwSpec
 from .partition import CoreSlice, Partition, Violation

@@ -13,8 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from neurovpr.connectors import AllToAllConnector, OneToOneConnector
-from neurovpr.network import Network, Projection
+from neurovpr.ir.connectors import AllToAllConnector, OneToOneConnector
+from neurovpr.ir.network import Network, Projection
 
 from .hwspec import HwSpec, SpinnakerRules
 from .partition import expand_on_chip
@@ -101,7 +101,7 @@ def signed_parts(network: Network, proj: Projection, weight: np.ndarray, spec: H
 
 def longest_delay(network: Network, proj: Projection, spec: HwSpec, seed: int) -> float:
     """The longest delay of ``proj`` in ms, in whole steps (``None`` delays are one step)."""
-    from neurovpr.connectors import FromListConnector
+    from neurovpr.ir.connectors import FromListConnector
 
     step = spec.timing.time_step_ms
     delay = proj.synapse.delay

@@ -15,9 +15,9 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.cells import SpikeSourceArray, SpikeSourcePoisson
 from neurovpr.errors import ValidationError
-from neurovpr.network import Network
+from neurovpr.ir.cells import SpikeSourceArray, SpikeSourcePoisson
+from neurovpr.ir.network import Network
 
 __all__ = ["probe_activity"]
 
@@ -60,7 +60,7 @@ def probe_activity(
         ``inferences`` (1), ``dt_ms``, ``steps``, ``neuron_updates``, ``spikes``,
         ``synaptic_events``, ``plastic_updates``, ``population_spikes``, ``cpu_seconds``.
     """
-    from neurovpr.compiler import compile as nv_compile
+    from neurovpr.runtime.compiler import compile as nv_compile
 
     rate_hz, duration_ms, dt = _positive("rate_hz", rate_hz), _positive("duration_ms", duration_ms), _positive("dt", dt)
     if rate_hz * dt / 1000.0 > 1.0:

@@ -70,8 +70,8 @@ def test_declaration() -> None:
     assert BACKEND.version() == brian2.__version__
     caps = BACKEND.capabilities
     assert caps.learns and caps.runs and caps.heterogeneous_delays
-    assert caps.cell_types == frozenset(nv.cells.CELL_TYPES) - {"SoftLIF"}
-    assert caps.connectors == frozenset(nv.connectors.CONNECTORS)
+    assert caps.cell_types == frozenset(nv.ir.cells.CELL_TYPES) - {"SoftLIF"}
+    assert caps.connectors == frozenset(nv.ir.connectors.CONNECTORS)
     assert caps.synapses == {"StaticSynapse", "STDPMechanism", "DiehlCookSTDP"}
     assert dict(caps.unsupported) == {}
 

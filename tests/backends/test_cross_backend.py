@@ -23,7 +23,7 @@ import neurovpr as nv
 from neurovpr.data.encoding import RateCoding
 from neurovpr.data.preprocess import preprocess_images
 from neurovpr.data.synthetic import synthetic_traverse
-from neurovpr.registry import discover
+from neurovpr.runtime.registry import discover
 
 training = pytest.importorskip("neurovpr.models.modular_snn.training")
 network = pytest.importorskip("neurovpr.models.modular_snn.network")

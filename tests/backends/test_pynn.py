@@ -10,8 +10,8 @@ import pytest
 import neurovpr as nv
 from neurovpr.backends import pynn as pynn_backend
 from neurovpr.backends.pynn.translation import from_pynn_weights, to_pynn_weights, translate
-from neurovpr.connectivity import expand
 from neurovpr.errors import BackendUnavailableError, SimulationError, UnsupportedFeatureError
+from neurovpr.ir.connectivity import expand
 
 pytest.importorskip("pyNN")
 NEST = pynn_backend.BACKEND
@@ -149,7 +149,7 @@ def test_unsupported_cell_types_are_refused_by_name(build, backend, words) -> No
     assert str(err.value).startswith(f"Backend {backend.name!r} cannot run")
 
 
-def _two(cell: nv.cells.CellType) -> nv.Network:
+def _two(cell: nv.ir.cells.CellType) -> nv.Network:
     net = nv.Network("refused")
     net.add_population("a", 2, nv.SpikeSourceArray.from_lists([[1.0], [2.0]]))
     net.add_population("b", 2, cell)

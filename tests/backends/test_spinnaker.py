@@ -10,9 +10,9 @@ import pytest
 import neurovpr as nv
 from neurovpr.backends import spinnaker
 from neurovpr.backends.spinnaker.capabilities import RUN_REFUSAL
-from neurovpr.connectivity import expand
 from neurovpr.errors import SimulationError, UnsupportedFeatureError, ValidationError
 from neurovpr.hardware import check_network
+from neurovpr.ir.connectivity import expand
 
 BACKEND = spinnaker.BACKEND
 

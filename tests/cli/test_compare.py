@@ -1,7 +1,7 @@
 """``neurovpr compare``: one trained model on several backends, refusals, broken backends, JSON and PNG.
 
 The model is a small template-matching network written for these tests (a real
-:class:`~neurovpr.modelapi.ModelPlugin`: it trains by imprinting the reference images
+:class:`~neurovpr.apps.modelapi.ModelPlugin`: it trains by imprinting the reference images
 as weights, saves ``network.h5`` and runs the saved weights on any backend); the
 backends are the real reference simulator, Nengo, NengoLoihi's emulator and Lava's
 bit-accurate Loihi 2 models.
@@ -20,14 +20,14 @@ import numpy as np
 import pytest
 
 import neurovpr as nv
-from neurovpr import compare, modelapi
+from neurovpr.apps import compare, modelapi
 from neurovpr.cli import compare_cmd
 from neurovpr.cli.train_cmd import parse_train_arguments
 from neurovpr.data.generic import open_traverse, write_generic
 from neurovpr.data.synthetic import synthetic_traverse
 from neurovpr.errors import NeurovprError
 from neurovpr.evaluation.metrics import distance_from_similarity, evaluate
-from neurovpr.registry import get_backend
+from neurovpr.runtime.registry import get_backend
 
 N_PLACES = 6
 #: Images are averaged over 8x8 blocks: 32x64 pixels -> 4x8 = 32 inputs.

@@ -13,7 +13,7 @@ import os
 
 import pytest
 
-from neurovpr.registry import BackendInfo
+from neurovpr.runtime.registry import BackendInfo
 
 from .target import Target, declared_backends
 

@@ -9,8 +9,8 @@ from dataclasses import dataclass
 import pytest
 
 import neurovpr as nv
-from neurovpr.backend import Backend, Capabilities
-from neurovpr.registry import BackendInfo, discover
+from neurovpr.runtime.backend import Backend, Capabilities
+from neurovpr.runtime.registry import BackendInfo, discover
 
 from .cases import CASES
 from .tolerances import Tolerances, tolerances_for

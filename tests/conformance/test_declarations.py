@@ -8,7 +8,7 @@ from types import MappingProxyType
 import pytest
 
 import neurovpr as nv
-from neurovpr.backend import Backend, Capabilities
+from neurovpr.runtime.backend import Backend, Capabilities
 
 from .cases import CASES
 from .target import Target, declared_backends

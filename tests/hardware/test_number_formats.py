@@ -45,7 +45,7 @@ def _assert_same(mine, theirs, *, shift: float = 0.0, what: str = "") -> None:
 # -- NengoLoihi (kapoho-bay) ---------------------------------------------------------------
 def _nengo_loihi():
     pytest.importorskip("nengo_loihi")
-    from neurovpr.registry import get_backend
+    from neurovpr.runtime.registry import get_backend
 
     try:
         return get_backend("nengo-loihi")

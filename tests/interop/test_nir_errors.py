@@ -15,7 +15,7 @@ nir = pytest.importorskip("nir")
 from neurovpr.interop.nir import export_nir, import_nir, network_to_nir, nir_to_network  # noqa: E402
 
 
-def _net(post_cell: nv.cells.CellType, synapse: nv.synapses.Synapse | None = None, **connect) -> nv.Network:
+def _net(post_cell: nv.ir.cells.CellType, synapse: nv.ir.synapses.Synapse | None = None, **connect) -> nv.Network:
     net = nv.Network("bad")
     net.add_population("src", 4, nv.SpikeSourcePoisson(rate=10.0))
     net.add_population("dst", 3, post_cell)

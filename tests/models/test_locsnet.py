@@ -12,9 +12,9 @@ import numpy as np
 import pytest
 
 import neurovpr as nv
-from neurovpr.cells import SoftLIF
 from neurovpr.data import GroundTruth, synthetic_traverse, write_generic
 from neurovpr.data.preprocess import patch_normalise
+from neurovpr.ir.cells import SoftLIF
 
 torch = pytest.importorskip("torch", reason="LoCS-Net training needs torch (the 'locsnet' extra)")
 
@@ -326,7 +326,7 @@ def test_the_converted_network_runs_on_the_other_backends(backend, trained, imag
     import subprocess
     import sys
 
-    from neurovpr.registry import backend_infos
+    from neurovpr.runtime.registry import backend_infos
 
     info = {i.name: i for i in backend_infos()}.get(backend)
     if info is None or not info.available:

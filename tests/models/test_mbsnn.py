@@ -224,8 +224,8 @@ def test_train_and_eval_through_the_plugin(tmp_path):
 
 
 def test_command_line_train_and_eval(tmp_path, capsys, monkeypatch):
+    from neurovpr.apps.modelapi import model_names
     from neurovpr.cli.main import main
-    from neurovpr.modelapi import model_names
 
     if "mbsnn" not in model_names():
         # not installed yet: declare the same entry point in a distribution on sys.path

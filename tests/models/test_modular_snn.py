@@ -14,8 +14,8 @@ import pytest
 from modular_tiny import TINY, synthetic_dataset, tiny_images
 
 import neurovpr as nv
-from neurovpr.connectivity import expand
 from neurovpr.evaluation.metrics import distance_from_similarity
+from neurovpr.ir.connectivity import expand
 from neurovpr.models.modular_snn import (
     MODEL,
     ModuleParameters,

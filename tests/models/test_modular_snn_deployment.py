@@ -11,7 +11,7 @@ import pytest
 from modular_tiny import TINY, synthetic_dataset, tiny_images
 
 import neurovpr as nv
-from neurovpr.connectivity import expand
+from neurovpr.ir.connectivity import expand
 from neurovpr.models.modular_snn import MODEL, assign_neurons, build_module, module_similarity, train_module
 
 
@@ -105,7 +105,7 @@ def test_converted_module_agrees_with_the_original_on_reference_nengo_and_nengo_
 
 
 def test_compare_runs_the_modular_snn_on_nengo_as_its_current_based_approximation(tmp_path: Path) -> None:
-    from neurovpr import compare
+    from neurovpr.apps import compare
 
     data = synthetic_dataset(tmp_path, 4)
     run = tmp_path / "run"

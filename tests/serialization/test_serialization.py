@@ -17,7 +17,7 @@ from network_files import contents, types_in
 
 import neurovpr as nv
 from neurovpr.errors import FileFormatError, ValidationError
-from neurovpr.serialization import FORMAT_NAME, FORMAT_VERSION, NODE_TYPES
+from neurovpr.ir.serialization import FORMAT_NAME, FORMAT_VERSION, NODE_TYPES
 
 
 # -- round trips ----------------------------------------------------------------------
@@ -97,10 +97,10 @@ def test_file_layout_and_path_types(tmp_path: Path, network: nv.Network) -> None
 
 
 def test_node_registry_is_read_only_and_built_from_the_type_tables() -> None:
-    from neurovpr.cells import CELL_TYPES
-    from neurovpr.connectors import CONNECTORS
-    from neurovpr.distributions import DISTRIBUTIONS
-    from neurovpr.synapses import SYNAPSE_TYPES
+    from neurovpr.ir.cells import CELL_TYPES
+    from neurovpr.ir.connectors import CONNECTORS
+    from neurovpr.ir.distributions import DISTRIBUTIONS
+    from neurovpr.ir.synapses import SYNAPSE_TYPES
 
     expected = {**CELL_TYPES, **SYNAPSE_TYPES, **CONNECTORS, **DISTRIBUTIONS, "Population": nv.Population}
     expected["Projection"] = nv.Projection

@@ -11,8 +11,8 @@ import pytest
 from network_files import load_error
 
 import neurovpr as nv
-from neurovpr import serialization
 from neurovpr.errors import FileFormatError
+from neurovpr.ir import serialization
 
 
 # -- damaged and foreign files ----------------------------------------------------------

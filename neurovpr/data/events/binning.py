@@ -34,7 +34,7 @@ from neurovpr.data.events.pn_spikes import PNSpikes, read_pn_mat
 from neurovpr.data.events.readers import read_events
 from neurovpr.data.events.stream import EventStream
 from neurovpr.errors import ValidationError
-from neurovpr.node import IRNode, param
+from neurovpr.ir.node import IRNode, param
 
 __all__ = [
     "MegaPixelBinning",

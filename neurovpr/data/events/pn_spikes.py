@@ -16,9 +16,9 @@ import h5py
 import numpy as np
 import scipy.io
 
-from neurovpr.cells import SpikeSourceArray
 from neurovpr.errors import FileFormatError, ValidationError
-from neurovpr.node import IRNode, freeze_array, param
+from neurovpr.ir.cells import SpikeSourceArray
+from neurovpr.ir.node import IRNode, freeze_array, param
 
 __all__ = ["PNSpikes", "read_pn_mat", "stretch_time"]
 

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from neurovpr.errors import ValidationError
-from neurovpr.node import IRNode, freeze_array, param
+from neurovpr.ir.node import IRNode, freeze_array, param
 
 __all__ = ["EventStream", "first_bad_record", "normalise_polarity"]
 

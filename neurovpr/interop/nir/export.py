@@ -15,7 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.cells import (
+from neurovpr.errors import ValidationError
+from neurovpr.ir.cells import (
     IF_cond_exp,
     IF_cond_exp_adaptive,
     IF_curr_exp,
@@ -24,10 +25,9 @@ from neurovpr.cells import (
     SpikeSourceArray,
     SpikeSourcePoisson,
 )
-from neurovpr.connectivity import expand
-from neurovpr.connectors import ConvolutionConnector, FromListConnector, OneToOneConnector
-from neurovpr.errors import ValidationError
-from neurovpr.network import Network, Projection
+from neurovpr.ir.connectivity import expand
+from neurovpr.ir.connectors import ConvolutionConnector, FromListConnector, OneToOneConnector
+from neurovpr.ir.network import Network, Projection
 
 from .mapping import check_options, node_fields_from_cell
 

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from neurovpr.errors import FileFormatError, NeurovprError, ValidationError
-from neurovpr.network import Network
+from neurovpr.ir.network import Network
 
 from .export import METADATA_PREFIX, build_graph
 from .importer import NIRImport, flatten_graph, graph_to_network
@@ -176,7 +176,7 @@ def _export(
     graph, notes = build_graph(network, dt=dt, integration=integration, seed=seed,
                                allow_refractory=allow_refractory, outputs=outputs)  # fmt: skip
     if embed:
-        from neurovpr.serialization import save
+        from neurovpr.ir.serialization import save
 
         with tempfile.TemporaryDirectory(prefix="neurovpr-nir-") as tmp:
             path = Path(tmp) / "network.h5"
@@ -207,7 +207,7 @@ def export_nir(
 
 def _restore(graph: Any, meta: dict[str, Any], dt: float, integration: str, notes: list[str]) -> Network | None:
     """The embedded network when the graph still is exactly its export, else ``None``."""
-    from neurovpr.serialization import load
+    from neurovpr.ir.serialization import load
 
     blob = meta.get(_BLOB)
     if not isinstance(blob, np.ndarray) or blob.dtype != np.uint8 or blob.ndim != 1:

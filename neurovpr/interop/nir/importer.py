@@ -18,11 +18,11 @@ from typing import Any
 import numpy as np
 import scipy.sparse as sp
 
-from neurovpr.cells import SpikeSourceArray
-from neurovpr.connectors import AllToAllConnector, ConvolutionConnector, FromListConnector, OneToOneConnector
 from neurovpr.errors import ValidationError
-from neurovpr.network import Network, Population, Projection
-from neurovpr.synapses import StaticSynapse
+from neurovpr.ir.cells import SpikeSourceArray
+from neurovpr.ir.connectors import AllToAllConnector, ConvolutionConnector, FromListConnector, OneToOneConnector
+from neurovpr.ir.network import Network, Population, Projection
+from neurovpr.ir.synapses import StaticSynapse
 
 from .linear import Op, compose, op_from_node
 from .mapping import NEURON_NODES, cell_from_node

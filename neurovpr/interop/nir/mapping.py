@@ -99,8 +99,8 @@ from typing import Any, Literal
 
 import numpy as np
 
-from neurovpr.cells import IF_curr_exp
 from neurovpr.errors import ValidationError
+from neurovpr.ir.cells import IF_curr_exp
 
 __all__ = [
     "DEFAULT_DT_MS",

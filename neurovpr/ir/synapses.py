@@ -1,10 +1,10 @@
 """Synapse types and plasticity rules as data, with PyNN's parameter names.
 
 Weights are in uS for conductance-based targets and nA for current-based targets.
-A weight is a number, a :class:`~neurovpr.distributions.Distribution`, or an array:
+A weight is a number, a :class:`~neurovpr.ir.distributions.Distribution`, or an array:
 1-D with one value per connection in the canonical connection order
-(see :mod:`neurovpr.connectivity`), or 2-D ``(n_pre, n_post)`` read at each
-connection's ``[pre, post]``. For a :class:`~neurovpr.connectors.ConvolutionConnector`
+(see :mod:`neurovpr.ir.connectivity`), or 2-D ``(n_pre, n_post)`` read at each
+connection's ``[pre, post]``. For a :class:`~neurovpr.ir.connectors.ConvolutionConnector`
 the weight is the kernel, shaped ``(out_channels, in_channels, kh, kw)``.
 Delays are in ms; ``None`` means one simulation time step (PyNN's minimum delay).
 
@@ -21,9 +21,9 @@ from typing import Any, Union
 
 import numpy as np
 
-from neurovpr.distributions import Distribution
 from neurovpr.errors import ValidationError
-from neurovpr.node import IRNode, freeze_array, param
+from neurovpr.ir.distributions import Distribution
+from neurovpr.ir.node import IRNode, freeze_array, param
 
 __all__ = [
     "Synapse",

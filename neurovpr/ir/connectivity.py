@@ -4,7 +4,7 @@ Every backend builds its synapses from :func:`expand`, so the same network, seed
 and time step give the same connections, weights and delays everywhere. The
 *canonical order* of a projection's connections, used by 1-D weight arrays,
 ``Simulation.weights(..., format="list")`` and saved learned weights, is the row
-order for :class:`~neurovpr.connectors.FromListConnector` and ``(pre, post)``
+order for :class:`~neurovpr.ir.connectors.FromListConnector` and ``(pre, post)``
 lexicographic order for every other connector.
 """
 
@@ -15,7 +15,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from neurovpr.connectors import (
+from neurovpr.errors import ValidationError
+from neurovpr.ir.connectors import (
     AllToAllConnector,
     ConvolutionConnector,
     FixedNumberPreConnector,
@@ -23,9 +24,8 @@ from neurovpr.connectors import (
     FromListConnector,
     OneToOneConnector,
 )
-from neurovpr.distributions import Distribution
-from neurovpr.errors import ValidationError
-from neurovpr.network import Network, Projection
+from neurovpr.ir.distributions import Distribution
+from neurovpr.ir.network import Network, Projection
 
 __all__ = ["Connections", "expand", "projection_rng", "resolved_seed"]
 

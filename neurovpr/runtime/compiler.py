@@ -8,9 +8,9 @@ from typing import Any
 import numpy as np
 
 from neurovpr.errors import ValidationError
-from neurovpr.network import Network
-from neurovpr.registry import get_backend
-from neurovpr.simulation import Simulation
+from neurovpr.ir.network import Network
+from neurovpr.runtime.registry import get_backend
+from neurovpr.runtime.simulation import Simulation
 
 __all__ = ["compile"]
 

@@ -16,8 +16,8 @@ from typing import TYPE_CHECKING, Any, Mapping
 from neurovpr.errors import BackendUnavailableError, UnsupportedFeatureError
 
 if TYPE_CHECKING:
-    from neurovpr.network import Network
-    from neurovpr.simulation import Simulation
+    from neurovpr.ir.network import Network
+    from neurovpr.runtime.simulation import Simulation
 
 __all__ = ["Capabilities", "Backend"]
 
@@ -141,7 +141,7 @@ class Backend:
         hardware: Any = None,
         **options: Any,
     ) -> Simulation:
-        """Check availability and features, then build a :class:`~neurovpr.simulation.Simulation`."""
+        """Check availability and features, then build a :class:`~neurovpr.runtime.simulation.Simulation`."""
         reason = self.unavailable_reason()
         if reason is not None:
             raise BackendUnavailableError(f"Backend {self.name!r} is not available: {reason}.")

@@ -8,9 +8,9 @@ File layout (format ``"neurovpr-network"``, version :data:`FORMAT_VERSION`)::
 ``graph`` is a JSON string ``{"populations": [...], "projections": [...]}``. Every IR
 node is written as ``{"type": <class name>, "fields": {<field>: <value>}}``, derived
 from its dataclass fields, so a new IR type needs no change here: adding it to one
-of the type tables (:data:`~neurovpr.cells.CELL_TYPES`,
-:data:`~neurovpr.synapses.SYNAPSE_TYPES`, :data:`~neurovpr.connectors.CONNECTORS`,
-:data:`~neurovpr.distributions.DISTRIBUTIONS`) makes it saveable and loadable.
+of the type tables (:data:`~neurovpr.ir.cells.CELL_TYPES`,
+:data:`~neurovpr.ir.synapses.SYNAPSE_TYPES`, :data:`~neurovpr.ir.connectors.CONNECTORS`,
+:data:`~neurovpr.ir.distributions.DISTRIBUTIONS`) makes it saveable and loadable.
 Values are JSON numbers, strings, booleans, ``null`` and lists (tuples), plus two
 tagged objects: ``{"$array": "/arrays/<n>"}`` for a numpy array stored as a dataset
 with its exact dtype and shape, and ``{"$float": "inf" | "-inf" | "nan"}`` for the
@@ -39,14 +39,14 @@ from typing import Any
 import h5py
 import numpy as np
 
-from neurovpr.cells import CELL_TYPES
-from neurovpr.connectors import CONNECTORS
-from neurovpr.distributions import DISTRIBUTIONS
 from neurovpr.errors import FileFormatError, NeurovprError, ValidationError
-from neurovpr.network import Network, Population, Projection
-from neurovpr.node import IRNode
-from neurovpr.simulation import Simulation
-from neurovpr.synapses import SYNAPSE_TYPES
+from neurovpr.ir.cells import CELL_TYPES
+from neurovpr.ir.connectors import CONNECTORS
+from neurovpr.ir.distributions import DISTRIBUTIONS
+from neurovpr.ir.network import Network, Population, Projection
+from neurovpr.ir.node import IRNode
+from neurovpr.ir.synapses import SYNAPSE_TYPES
+from neurovpr.runtime.simulation import Simulation
 
 __all__ = ["save", "load", "FORMAT_NAME", "FORMAT_VERSION", "NODE_TYPES"]
 
@@ -193,9 +193,9 @@ def save(obj: Network | Simulation, path: str | os.PathLike) -> None:
     Parameters
     ----------
     obj
-        A :class:`~neurovpr.network.Network`, or a
-        :class:`~neurovpr.simulation.Simulation` whose
-        :meth:`~neurovpr.simulation.Simulation.to_network` (learned weights and
+        A :class:`~neurovpr.ir.network.Network`, or a
+        :class:`~neurovpr.runtime.simulation.Simulation` whose
+        :meth:`~neurovpr.runtime.simulation.Simulation.to_network` (learned weights and
         thresholds included) is saved.
     path
         Destination file (conventionally ``*.h5``).

@@ -10,8 +10,8 @@ import importlib.metadata
 from dataclasses import dataclass
 from typing import Any
 
-from neurovpr.backend import Backend
 from neurovpr.errors import BackendUnavailableError
+from neurovpr.runtime.backend import Backend
 
 __all__ = ["BackendInfo", "ENTRY_POINT_GROUP", "discover", "get_backend", "backend_infos"]
 

@@ -25,10 +25,10 @@ from typing import Any, Literal, Mapping
 
 import numpy as np
 
-from neurovpr.cells import IF_cond_exp_adaptive, SpikeSourceArray, SpikeSourcePoisson
-from neurovpr.connectivity import resolved_seed
 from neurovpr.errors import SimulationError, ValidationError
-from neurovpr.network import Network
+from neurovpr.ir.cells import IF_cond_exp_adaptive, SpikeSourceArray, SpikeSourcePoisson
+from neurovpr.ir.connectivity import resolved_seed
+from neurovpr.ir.network import Network
 
 __all__ = ["Simulation"]
 
@@ -234,7 +234,7 @@ class Simulation(ABC):
             conn = proj.connector
             if hasattr(conn, "seed") and conn.random:
                 conn = conn.replace(seed=resolved_seed(proj, self._seed))
-            from neurovpr.connectors import ConvolutionConnector, FromListConnector
+            from neurovpr.ir.connectors import ConvolutionConnector, FromListConnector
 
             if isinstance(conn, ConvolutionConnector) or weight.size == 0:
                 continue  # kernels are shared and never learned; an empty projection has nothing to store

@@ -3,7 +3,7 @@
 PyNN's connector names and arguments. Random connectors draw from a generator
 derived from ``seed`` when given, otherwise from the compile seed and the
 projection's name, so that all backends build the same connections. The expansion
-of a connector into explicit index arrays lives in :mod:`neurovpr.connectivity`.
+of a connector into explicit index arrays lives in :mod:`neurovpr.ir.connectivity`.
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.distributions import Distribution
 from neurovpr.errors import ValidationError
-from neurovpr.node import IRNode, freeze_array, param
+from neurovpr.ir.distributions import Distribution
+from neurovpr.ir.node import IRNode, freeze_array, param
 
 __all__ = [
     "Connector",
@@ -87,7 +87,7 @@ class FixedProbabilityConnector(Connector):
 class FixedNumberPreConnector(Connector):
     """Each postsynaptic neuron receives ``n`` connections from random presynaptic neurons.
 
-    ``n`` is an integer or a :class:`~neurovpr.distributions.Distribution`, drawn per
+    ``n`` is an integer or a :class:`~neurovpr.ir.distributions.Distribution`, drawn per
     postsynaptic neuron, rounded to the nearest integer and clipped to
     ``[0, n_pre]`` (for example ``round(N(5, 1))`` PN inputs per Kenyon cell).
     """

@@ -1,4 +1,4 @@
-"""The PNG of :mod:`neurovpr.compare`: accuracy, agreement, time per query and energy per backend."""
+"""The PNG of :mod:`neurovpr.apps.compare`: accuracy, agreement, time per query and energy per backend."""
 
 from __future__ import annotations
 
@@ -11,7 +11,7 @@ import numpy as np
 from neurovpr.errors import ValidationError
 
 if TYPE_CHECKING:
-    from neurovpr.compare import Comparison
+    from neurovpr.apps.compare import Comparison
 
 __all__ = ["plot_comparison"]
 

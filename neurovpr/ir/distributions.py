@@ -13,7 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from neurovpr.errors import ValidationError
-from neurovpr.node import IRNode, param
+from neurovpr.ir.node import IRNode, param
 
 __all__ = ["Distribution", "Uniform", "Normal", "DISTRIBUTIONS"]
 

@@ -1,7 +1,7 @@
 """One trained model on several backends: accuracy, agreement, spike counts, time and energy.
 
 ``neurovpr compare`` runs the model of a run directory on each named backend through
-its plugin's :meth:`~neurovpr.modelapi.ModelPlugin.infer` and compares the results with
+its plugin's :meth:`~neurovpr.apps.modelapi.ModelPlugin.infer` and compares the results with
 those of the first backend that ran (the *reference of comparison*):
 
 - ``metrics``: the model's own accuracy metrics on that backend (``R@1``, ``P@100R``, ...);
@@ -31,8 +31,9 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr import modelapi, registry
+from neurovpr.apps import modelapi
 from neurovpr.errors import BackendUnavailableError, UnsupportedFeatureError, ValidationError
+from neurovpr.runtime import registry
 
 __all__ = [
     "BackendComparison",
@@ -319,7 +320,7 @@ def _run_network(run_dir: Path) -> Any:
     path = run_dir / _NETWORK_FILE
     if not path.is_file():
         return None
-    from neurovpr.serialization import load
+    from neurovpr.ir.serialization import load
 
     return load(path)
 
@@ -352,7 +353,7 @@ def compare_model(
         Show a progress bar over the backends.
     model
         The model's plugin; by default the installed model named in ``run.json``
-        (:func:`neurovpr.modelapi.get_model`).
+        (:func:`neurovpr.apps.modelapi.get_model`).
 
     Raises
     ------

@@ -13,7 +13,7 @@ from typing import ClassVar
 import numpy as np
 
 from neurovpr.errors import ValidationError
-from neurovpr.node import IRNode, freeze_array, param
+from neurovpr.ir.node import IRNode, freeze_array, param
 
 __all__ = [
     "CellType",

@@ -15,12 +15,12 @@ from typing import Any, Literal, Mapping
 
 import numpy as np
 
-from neurovpr.cells import CellType, NeuronType, SoftLIF
-from neurovpr.connectors import Connector, ConvolutionConnector, FromListConnector
-from neurovpr.distributions import Distribution
 from neurovpr.errors import ValidationError
-from neurovpr.node import IRNode, freeze_array
-from neurovpr.synapses import StaticSynapse, Synapse
+from neurovpr.ir.cells import CellType, NeuronType, SoftLIF
+from neurovpr.ir.connectors import Connector, ConvolutionConnector, FromListConnector
+from neurovpr.ir.distributions import Distribution
+from neurovpr.ir.node import IRNode, freeze_array
+from neurovpr.ir.synapses import StaticSynapse, Synapse
 
 __all__ = ["Population", "Projection", "Network", "RECEPTOR_TYPES"]
 
@@ -315,7 +315,7 @@ def _check_weight_spec(proj: Projection, n_pre: int, n_post: int, *, conductance
 
 def _fixed_count(conn: Connector, n_pre: int, n_post: int) -> int | None:
     """Number of connections a deterministic connector makes, or ``None`` for random ones."""
-    from neurovpr.connectors import AllToAllConnector, OneToOneConnector
+    from neurovpr.ir.connectors import AllToAllConnector, OneToOneConnector
 
     if isinstance(conn, AllToAllConnector):
         return n_pre * n_post - (0 if conn.allow_self_connections else min(n_pre, n_post))

@@ -1,0 +1,7 @@
+"""Running a network: backends, the registry that finds them, ``compile`` and the ``Simulation`` interface.
+
+- :mod:`.backend` -- what a backend is (its capability declaration and ``compile``)
+- :mod:`.registry` -- backends found through the ``neurovpr.backends`` entry point
+- :mod:`.compiler` -- ``neurovpr.compile``
+- :mod:`.simulation` -- the ``Simulation`` interface every backend implements
+"""
