@@ -420,7 +420,8 @@ def synapse_model(synapse: Synapse, *, conductance: bool, receptor: str) -> Syna
             "w_max": synapse.w_max,
             "tau_xpre": synapse.tau_pre * _MS,
             "tau_xpost": synapse.tau_post * _MS,
-            "eta_dep": synapse.eta_pre,
+            # the template subtracts eta_dep x_post at an arrival: a potentiating pre term is a negative depression
+            "eta_dep": synapse.eta_pre if synapse.pre_term == "depress" else -synapse.eta_pre,
             "eta_pot": synapse.eta_post,
             "x_tar": synapse.x_tar,
             "mu": synapse.mu,

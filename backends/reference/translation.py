@@ -163,7 +163,8 @@ def rule_row(syn: object) -> np.ndarray:
         row[R_TAU_PRE], row[R_TAU_POST] = td.tau_plus, td.tau_minus
     elif isinstance(syn, DiehlCookSTDP):
         row[R_KIND] = RULE_DIEHL_COOK
-        row[R_POT], row[R_DEP] = syn.eta_post, syn.eta_pre
+        # the kernels subtract R_DEP x_post at an arrival: a potentiating pre term is a negative depression
+        row[R_POT], row[R_DEP] = syn.eta_post, (syn.eta_pre if syn.pre_term == "depress" else -syn.eta_pre)
         row[R_W_MIN], row[R_W_MAX] = 0.0, syn.w_max
         row[R_TAU_PRE], row[R_TAU_POST] = syn.tau_pre, syn.tau_post
         row[R_MU], row[R_X_TAR] = syn.mu, syn.x_tar

@@ -39,6 +39,8 @@ __all__ = [
 ]
 
 _KW = {"frozen": True, "slots": True, "kw_only": True, "eq": False}
+#: What a presynaptic arrival does under :class:`DiehlCookSTDP`: ``w -= eta_pre x_post`` or ``w += eta_pre x_post``.
+PRE_TERMS = ("depress", "potentiate")
 
 WeightSpec = Union[float, Distribution, np.ndarray]
 DelaySpec = Union[float, Distribution, np.ndarray, None]
@@ -171,12 +173,14 @@ class DiehlCookSTDP(Synapse):
 
     Traces are *set* to 1 at a spike (nearest-spike interaction, as in Diehl &
     Cook's code) and decay exponentially. On a presynaptic spike arriving at the
-    synapse: ``w -= eta_pre * x_post``, then ``x_pre = 1``. On a postsynaptic spike:
-    ``w += eta_post * (x_pre - x_tar) * (w_max - w) ** mu * y``, then ``x_post = 1``,
-    where ``y = 1`` (the paper's equation) or, when ``tau_post2`` is given, the value
-    of a second postsynaptic trace just before this spike (the triplet form of
-    Diehl & Cook's published code, used with ``mu = 0``). Weights stay within
-    ``[0, w_max]``.
+    synapse: ``w -= eta_pre * x_post`` (``pre_term="depress"``, Diehl & Cook's rule)
+    or ``w += eta_pre * x_post`` (``pre_term="potentiate"``, the Modular SNN authors'
+    code, QVPR/VPRSNN ``non_modular_snn/snn_model.py``), then ``x_pre = 1``. On a
+    postsynaptic spike: ``w += eta_post * (x_pre - x_tar) * (w_max - w) ** mu * y``,
+    then ``x_post = 1``, where ``y = 1`` (the paper's equation) or, when ``tau_post2``
+    is given, the value of a second postsynaptic trace just before this spike (the
+    triplet form of Diehl & Cook's published code, used with ``mu = 0``). Weights
+    stay within ``[0, w_max]``.
     """
 
     plastic = True
@@ -191,8 +195,13 @@ class DiehlCookSTDP(Synapse):
     tau_pre: float = param(20.0, unit="ms", low=0.0, low_open=True)
     tau_post: float = param(20.0, unit="ms", low=0.0, low_open=True)
     tau_post2: float | None = None
+    pre_term: str = "depress"
 
     def _validate(self) -> None:
+        if self.pre_term not in PRE_TERMS:
+            raise ValidationError(
+                f"DiehlCookSTDP.pre_term must be one of {', '.join(map(repr, PRE_TERMS))}, got {self.pre_term!r}."
+            )
         if self.tau_post2 is not None:
             t2 = self.tau_post2
             if isinstance(t2, bool) or not isinstance(t2, (int, float, np.integer, np.floating)) or not t2 > 0:

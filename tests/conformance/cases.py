@@ -24,6 +24,8 @@ CASES = MappingProxyType(
         "stdp_diehl_cook": "one pre/post pair under DiehlCookSTDP (pair form)",
         "stdp_same_instant": "for each rule, an arrival at the instant of a post spike counts as dt_pair = 0",
         "stdp_diehl_cook_triplet": "one pre spike and two post spikes under DiehlCookSTDP with tau_post2",
+        "stdp_potentiating_pre": "DiehlCookSTDP with pre_term='potentiate' and the triplet post term (the Modular SNN "
+        "authors' rule): post, pre, post",
         "winner_take_all": "lateral inhibition lets the most strongly driven neuron win",
         "delay_shift": "changing a projection's delay shifts the postsynaptic spikes by exactly that much",
         "delay_heterogeneous": "per-connection delays within one projection each shift their target's spike",

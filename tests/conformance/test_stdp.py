@@ -121,3 +121,25 @@ def test_diehl_cook_triplet(backend):
     expected = 0.5 + syn.eta_post * factor
     tol = backend.tol(case).weight_rel * abs(expected - 0.5) + 1e-12
     assert abs(w - expected) <= tol, f"w={w!r}, expected {expected!r} (t_a={t_a:g}, t1={t1:g}, t2={t2:g})"
+
+
+def test_potentiating_pre_term(backend):
+    """The Modular SNN authors' rule: ``pre_term="potentiate"``, triplet post term, ``x_tar = 0``, ``mu = 0``.
+
+    Post spike at ``t1``, arrival at ``t_a > t1``, post spike at ``t2``: the arrival gives
+    ``w1 = w0 + eta_pre exp(-(t_a - t1) / tau_post)`` (a potentiation), the second post spike
+    ``w2 = w1 + eta_post exp(-(t2 - t_a) / tau_pre) exp(-(t2 - t1) / tau_post2)``.
+    """
+    case = "stdp_potentiating_pre"
+    syn = nv.DiehlCookSTDP(
+        weight=0.5, delay=DELAY, eta_pre=0.02, eta_post=0.1, w_max=1.0, mu=0.0,
+        tau_pre=20.0, tau_post=15.0, tau_post2=40.0, pre_term="potentiate",
+    )  # fmt: skip
+    pre, post, w = _run_pair(backend, case, syn, [30.0], [T_DRIVE, 45.0])
+    t_a = pre[0] + DELAY
+    t1, t2 = post
+    assert t1 < t_a < t2
+    w1 = 0.5 + syn.eta_pre * math.exp(-_on_grid(t_a - t1) / syn.tau_post)
+    expected = w1 + syn.eta_post * math.exp(-_on_grid(t2 - t_a) / syn.tau_pre) * math.exp(-_on_grid(t2 - t1) / syn.tau_post2)
+    tol = backend.tol(case).weight_rel * abs(expected - 0.5) + 1e-12
+    assert abs(w - expected) <= tol, f"w={w!r}, expected {expected!r} (t1={t1:g}, t_a={t_a:g}, t2={t2:g})"

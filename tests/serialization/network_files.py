@@ -58,7 +58,7 @@ def full_network() -> nv.Network:
         "poisson",
         "adaptive",
         nv.FixedProbabilityConnector(p_connect=0.5, seed=7),
-        nv.DiehlCookSTDP(weight=nv.Uniform(low=0.0, high=0.3), x_tar=0.1, mu=0.5),
+        nv.DiehlCookSTDP(weight=nv.Uniform(low=0.0, high=0.3), x_tar=0.1, mu=0.5, pre_term="potentiate"),
     )
     net.connect(
         "poisson",
