@@ -1,18 +1,61 @@
 """Modular SNN and Ensembles of Modular SNNs (Hussaini, Milford & Fischer, IEEE T-RO 2024).
 
-- :mod:`.network` -- the graph of one module (paper parameters)
+- :mod:`.network` -- the graph of one module
 - :mod:`.training` -- training one module, presenting images
 - :mod:`.inference` -- assignment, hyperactive neurons, fusion, ensembles
 - :mod:`.deployment` -- the current-based approximation for backends without conductance synapses
 - :mod:`.parallel` -- process pool / Dask execution of module jobs
-- :mod:`.runs` -- run directories: plan, resume, query responses, similarities
+- :mod:`.runs` -- run directories: plan, calibration split, resume, query responses, similarities
 - :mod:`.report` -- metrics at several sequence lengths and plots
 - :mod:`.plugin` -- ``neurovpr train/eval --model modular``; :data:`MODEL` is its entry point
+
+Where the paper's text and the authors' published code (QVPR/VPRSNN, branches main,
+modularSNN, Ens_seq) differ, the defaults follow the code; each choice, with the option
+that gives the paper's text where a user may want it:
+
+- excitatory neurons: membrane clamped 5 ms, no spike for 50 ms (``timer > refrac_e``,
+  ``dtimer/dt = 0.1``); paper: 5 ms refractory (``ModuleParameters(lockout_e=0)``).
+- learning rule: triplet STDP, potentiating at a presynaptic arrival (``w += nu_pre *
+  post1``), ``w += nu_post * pre * post2_before`` at a postsynaptic spike, traces set to 1;
+  paper: depression at a presynaptic spike, ``(w_max - w)^mu`` at a postsynaptic one
+  (``--stdp paper``).
+- presentation order: one random order per module, repeated every epoch; paper: not stated.
+- assignment: from the spike counts of the last 250 training presentations, while
+  learning (``--update_interval``); paper: after training (``--assignment-presentations``
+  sets the window).
+- place score: spikes of a place's neurons divided by all neurons assigned to it,
+  hyperactive ones zeroed but counted (the "standard" assignment); paper: the sum
+  (``--place-score sum``).
+- hyperactive neurons: reference images a neuron fired for, threshold chosen from 0, 5,
+  10, 20, 40, ..., 200 by Recall@1 on calibration places held out of the reported ones
+  (VPRSNN's calibrate mode); paper: total spikes against a threshold drawn from U(40, 100)
+  or U(600, 800) (``--hyperactive spikes --theta VALUE`` fixes a threshold instead).
+- places of a module: a random split per member (VPRSNN's ``get_shuffled_indices``,
+  calibration places drawn with seed 42); paper: geographically separate regions
+  (``--place-order route``).
+- hyperactive activity counted over the first reference traverse (the code's record mode).
+- ensemble: sum of the members' standard-scored similarity matrices (``ens_seq/process_ensembles.py``).
+- weights above ``w_max`` after the per-image normalisation are clipped at once (the code
+  clips them at the synapse's next update).
+
+- time step: 0.1 ms, Brian2's default in the code, so the E->I->E inhibition loop closes in
+  0.2 ms (two steps) as there; at 0.5 ms (``--dt 0.5``, cheaper) it closes in
+  1 ms, and with the 50 ms lockout every neuron then fires at the lockout's pace (about
+  7 spikes per image instead of about 1, all neurons of a module on one place;
+  ``tests/models/test_modular_snn_statistics.py``); paper: not stated.
+- integration: exact over each step (the code: Euler); the 150 ms rest after each image is
+  replaced by a reset of the state (``--simulate-rest`` simulates it).
+
+Not reproduced: the code's evaluation gives a row only to the labels some neuron holds
+(-1, unassigned, included), here every place has a row and one without neurons scores 0;
+the released members' per-member epochs (60-70, chosen by calibration; ``--epochs`` is
+one value for all).
 """
 
 from .inference import (
+    THRESHOLDS,
     assign_neurons,
-    draw_hyperactive_threshold,
+    calibrate_threshold,
     ensemble_similarity,
     fuse_modules,
     hyperactive_neurons,
@@ -21,18 +64,20 @@ from .inference import (
 )
 from .network import ModuleParameters, build_module
 from .plugin import MODEL, ModularSNNPlugin
-from .runs import make_plan, member_similarities, query_responses, train_run
+from .runs import MemberSimilarities, make_plan, member_similarities, query_responses, train_run
 from .training import TrainingSettings, derive_seed, train_module
 
 __all__ = [
     "MODEL",
+    "THRESHOLDS",
+    "MemberSimilarities",
     "ModularSNNPlugin",
     "ModuleParameters",
     "TrainingSettings",
     "assign_neurons",
     "build_module",
+    "calibrate_threshold",
     "derive_seed",
-    "draw_hyperactive_threshold",
     "ensemble_similarity",
     "fuse_modules",
     "hyperactive_neurons",

@@ -8,7 +8,11 @@ approximation, built by :func:`to_current_based`:
 - neurons: ``IF_cond_exp_adaptive`` with its learned, frozen threshold offset
   ``theta`` becomes ``IF_curr_exp`` with ``v_thresh + theta`` per neuron;
   ``IF_cond_exp`` becomes ``IF_curr_exp``; ``cm``, ``tau_m``, ``tau_refrac``,
-  ``tau_syn_E``, ``tau_syn_I``, ``v_rest``, ``v_reset`` and ``i_offset`` are kept.
+  ``tau_syn_E``, ``tau_syn_I``, ``v_rest``, ``v_reset`` and ``i_offset`` are kept,
+  except that a spike lockout longer than ``tau_refrac`` (``tau_lockout``, which no
+  current-based target has) becomes the refractory period: the membrane is then held
+  for the whole lockout instead of integrating after ``tau_refrac`` (V_ref's
+  calibration absorbs part of the difference).
 - synapses: a conductance ``g (E_rev - v)`` becomes the current ``g (E_rev - V_ref)``,
   so a weight ``w`` (uS) becomes ``w (E_rev_E - V_ref)`` (nA) on the excitatory
   receptor and ``w (V_ref - E_rev_I)`` (nA, subtracted by ``IF_curr_exp``) on the
@@ -244,11 +248,15 @@ def _receptors(network: nv.Network) -> dict[str, set[str]]:
 
 def _current_cell(cell: Any, size: int) -> nv.IF_curr_exp:
     thresh = np.broadcast_to(np.asarray(cell.v_thresh, dtype=np.float64), (size,))
+    refrac = cell.tau_refrac
     if isinstance(cell, nv.IF_cond_exp_adaptive):
         thresh = thresh + np.broadcast_to(np.asarray(cell.theta_init, dtype=np.float64), (size,))
+        # no current-based target has a spike lockout apart from the clamp: the clamp covers the lockout
+        refrac = np.maximum(np.asarray(cell.tau_refrac, dtype=np.float64), np.asarray(cell.tau_lockout, dtype=np.float64))
+        refrac = float(refrac) if refrac.ndim == 0 else refrac
     uniform = bool(np.all(thresh == thresh[0]))
     return nv.IF_curr_exp(
-        cm=cell.cm, tau_m=cell.tau_m, tau_refrac=cell.tau_refrac, tau_syn_E=cell.tau_syn_E, tau_syn_I=cell.tau_syn_I,
+        cm=cell.cm, tau_m=cell.tau_m, tau_refrac=refrac, tau_syn_E=cell.tau_syn_E, tau_syn_I=cell.tau_syn_I,
         v_rest=cell.v_rest, v_reset=cell.v_reset, v_thresh=float(thresh[0]) if uniform else thresh.copy(),
         i_offset=cell.i_offset,
     )  # fmt: skip

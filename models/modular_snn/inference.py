@@ -1,25 +1,29 @@
 """From spike counts to place similarities: assignment, hyperactive neurons, fusion, ensembles.
 
 Notation: ``R`` reference places, ``Q`` query images, ``n`` excitatory neurons of one
-module. Every function is a pure function of arrays.
+module. Every function is a pure function of arrays. Defaults follow the authors' code
+(QVPR/VPRSNN ``non_modular_snn/snn_model_evaluation.py`` and
+``modular_snn/modular_snn_config_evaluation.py``).
 
 - Assignment (Eq. 4): neuron ``i`` of a module is assigned to the place ``p`` of that
-  module for which its (learning-off) response ``r_i(p)`` is largest; ties go to the
+  module for which its response ``r_i(p)`` is largest (the code: its mean spike count
+  over the last training presentations of ``p``, see :mod:`.training`); ties go to the
   first such place, and a neuron that fired for none of its module's places is left
   unassigned (-1), as VPRSNN's ``get_new_assignments`` does.
-- Hyperactive neurons: a neuron whose total spike count over the whole reference set
-  is at least ``theta`` is ignored (its query spikes are dropped). ``theta`` is drawn
-  once per modular SNN (ensemble member) from U(40, 100) for reference sets below 1000
-  places and from U(600, 800) from 1000 places on (:func:`draw_hyperactive_threshold`).
-  ``measure="images"`` counts the reference images a neuron fired for instead of its
-  spikes (VPRSNN's ``np.count_nonzero`` over the reference responses). With several
-  training traverses the responses and activity are taken over all of them
-  (:mod:`.runs` says how).
+- Hyperactive neurons: a neuron that fired for at least ``theta`` reference images
+  (``measure="images"``, VPRSNN's ``np.count_nonzero`` over its responses to every
+  reference image) is hyperactive; ``theta = 0`` marks none, as in the code. ``theta`` is
+  chosen per modular SNN (ensemble member) on calibration places, as the code does: the
+  value of :data:`THRESHOLDS` with the best Recall@1 of the calibration modules on the
+  calibration queries (:func:`calibrate_threshold`; ties go to the smaller value).
+  ``measure="spikes"`` counts total spikes instead (the paper's text).
 - Module output (Eq. 7) and fusion (Eq. 9): the similarity of query ``q`` to place ``p``
-  is the sum of the query spikes of the neurons assigned to ``p``; modules hold disjoint
+  is the sum of the query spikes of the neurons assigned to ``p`` with the hyperactive
+  ones' spikes set to 0, divided by the number of neurons assigned to ``p``, hyperactive
+  ones included (``score="standard"``, VPRSNN's "standard" assignment); a place with no
+  neuron scores 0. ``score="sum"`` is the paper's plain sum. Modules hold disjoint
   places, so fusing them is summing every module's contribution into one ``R x Q``
-  matrix. ``score="mean"`` divides each place's sum by its number of assigned neurons
-  (VPRSNN's "standard" assignment).
+  matrix.
 - Ensemble (Eq. 10): the members' similarity matrices are summed.
 - Distance (Eq. 11-12): ``D = max(S) - S`` over the whole matrix
   (:func:`neurovpr.evaluation.metrics.distance_from_similarity`).
@@ -32,22 +36,27 @@ from collections.abc import Sequence
 import numpy as np
 
 import neurovpr as nv
-from neurovpr.evaluation.metrics import distance_from_similarity
+from neurovpr.data.ground_truth import GroundTruth
+from neurovpr.evaluation.metrics import distance_from_similarity, recall_at_n
 
 __all__ = [
+    "THRESHOLDS",
+    "SCORES",
     "assign_neurons",
-    "draw_hyperactive_threshold",
     "reference_activity",
     "hyperactive_neurons",
     "module_similarity",
     "fuse_modules",
+    "calibrate_threshold",
     "ensemble_similarity",
     "distance_from_similarity",
-    "LARGE_REFERENCE_SET",
 ]
 
-#: From this many reference places on, theta is drawn from U(600, 800) instead of U(40, 100).
-LARGE_REFERENCE_SET = 1000
+#: The hyperactive thresholds (reference images fired for) VPRSNN's calibration tries
+#: (``modular_snn/modular_snn_evaluation.py``).
+THRESHOLDS = (0, 5, 10, 20, 40, 60, 80, 100, 120, 140, 160, 180, 200)
+#: Place scores (see the module docstring).
+SCORES = ("standard", "sum")
 
 
 def assign_neurons(responses: np.ndarray, places: np.ndarray) -> np.ndarray:
@@ -73,15 +82,7 @@ def assign_neurons(responses: np.ndarray, places: np.ndarray) -> np.ndarray:
     return out
 
 
-def draw_hyperactive_threshold(n_reference: int, rng: np.random.Generator) -> float:
-    """Draw theta: U(40, 100) below :data:`LARGE_REFERENCE_SET` reference places, else U(600, 800)."""
-    if int(n_reference) < 1:
-        raise nv.ValidationError(f"hyperactive threshold needs at least one reference place, got {n_reference}.")
-    low, high = (40.0, 100.0) if n_reference < LARGE_REFERENCE_SET else (600.0, 800.0)
-    return float(rng.uniform(low, high))
-
-
-def reference_activity(reference_responses: np.ndarray, *, measure: str = "spikes") -> np.ndarray:
+def reference_activity(reference_responses: np.ndarray, *, measure: str = "images") -> np.ndarray:
     """Activity of each neuron over the whole reference set, compared with theta.
 
     Parameters
@@ -89,8 +90,8 @@ def reference_activity(reference_responses: np.ndarray, *, measure: str = "spike
     reference_responses
         ``(R, n)`` spike counts of a module's neurons for every reference image.
     measure
-        ``"spikes"`` (total spikes, the paper) or ``"images"`` (number of reference
-        images with at least one spike, VPRSNN's code).
+        ``"images"`` (number of reference images with at least one spike, VPRSNN's
+        code) or ``"spikes"`` (total spikes, the paper's text).
     """
     r = np.asarray(reference_responses)
     if r.ndim != 2:
@@ -103,13 +104,13 @@ def reference_activity(reference_responses: np.ndarray, *, measure: str = "spike
 
 
 def hyperactive_neurons(activity: np.ndarray, theta: float) -> np.ndarray:
-    """Boolean mask of the neurons to ignore: ``activity >= theta`` (see :func:`reference_activity`)."""
+    """Boolean mask of the neurons to ignore: ``activity >= theta``, none for ``theta = 0`` (see :func:`reference_activity`)."""
     if not np.isfinite(theta) or theta < 0:
         raise nv.ValidationError(f"hyperactive threshold theta must be a finite number >= 0, got {theta!r}.")
     a = np.asarray(activity)
     if a.ndim != 1:
         raise nv.ValidationError(f"neuron activity must be 1-D (one value per neuron), got shape {a.shape}.")
-    return a >= theta
+    return a >= theta if theta > 0 else np.zeros(a.shape, dtype=bool)
 
 
 def module_similarity(
@@ -118,7 +119,7 @@ def module_similarity(
     n_reference: int,
     *,
     ignore: np.ndarray | None = None,
-    score: str = "sum",
+    score: str = "standard",
 ) -> np.ndarray:
     """One module's contribution to the ``(R, Q)`` similarity matrix (Eq. 7).
 
@@ -131,10 +132,10 @@ def module_similarity(
     n_reference
         ``R``, the number of reference places.
     ignore
-        ``(n,)`` mask of neurons to drop (hyperactive neurons).
+        ``(n,)`` mask of hyperactive neurons: their spikes count 0.
     score
-        ``"sum"`` (the paper) or ``"mean"`` (sum divided by the place's number of
-        counted neurons, VPRSNN's standard assignment).
+        ``"standard"`` (sum divided by the number of neurons assigned to the place,
+        hyperactive ones included, VPRSNN's standard assignment) or ``"sum"`` (the paper).
     """
     counts = np.asarray(query_counts, dtype=np.float64)
     a = np.asarray(assignments, dtype=np.int64)
@@ -144,7 +145,10 @@ def module_similarity(
         )
     if a.size and a.max() >= n_reference:
         raise nv.ValidationError(f"a neuron is assigned to place {int(a.max())}, beyond the {n_reference} reference places.")
-    keep = a >= 0
+    if score not in SCORES:
+        raise nv.ValidationError(f"place score must be one of {', '.join(SCORES)}, got {score!r}.")
+    assigned = a >= 0
+    keep = assigned.copy()
     if ignore is not None:
         ignore = np.asarray(ignore, dtype=bool)
         if ignore.shape != a.shape:
@@ -152,17 +156,54 @@ def module_similarity(
         keep &= ~ignore
     sim = np.zeros((int(n_reference), counts.shape[0]))
     np.add.at(sim, a[keep], counts[:, keep].T)
-    if score == "mean":
-        n_per_place = np.bincount(a[keep], minlength=int(n_reference))
+    if score == "standard":
+        n_per_place = np.bincount(a[assigned], minlength=int(n_reference))
         sim /= np.maximum(n_per_place, 1)[:, None]
-    elif score != "sum":
-        raise nv.ValidationError(f"place score must be 'sum' or 'mean', got {score!r}.")
     return sim
 
 
 def fuse_modules(contributions: Sequence[np.ndarray]) -> np.ndarray:
     """Modular fusion (Eq. 9): sum of the modules' ``(R, Q)`` contributions."""
     return _sum_same_shape(contributions, "module")
+
+
+def calibrate_threshold(
+    modules: Sequence[tuple[np.ndarray, np.ndarray, np.ndarray]],
+    n_reference: int,
+    places: np.ndarray,
+    ground_truth: GroundTruth,
+    *,
+    score: str = "standard",
+    thresholds: Sequence[float] = THRESHOLDS,
+) -> tuple[float, dict[float, float]]:
+    """The hyperactive threshold with the best calibration Recall@1, and the Recall@1 of each.
+
+    Parameters
+    ----------
+    modules
+        ``(query_counts, assignments, activity)`` of each calibration module: its spike
+        counts for the calibration queries ``(Q_cal, n)``, its neurons' places and their
+        reference activity (:func:`reference_activity`).
+    n_reference
+        ``R``, the number of reference places (assignments are global place indices).
+    places
+        The calibration places (rows of the calibration similarity), sorted.
+    ground_truth
+        ``[places, calibration queries]`` ground truth.
+    score, thresholds
+        The place score and the candidates; ties go to the smaller threshold.
+    """
+    places = np.asarray(places, dtype=np.int64)
+    recall: dict[float, float] = {}
+    for theta in sorted(thresholds):
+        parts = [
+            module_similarity(counts, assigned, n_reference, ignore=hyperactive_neurons(activity, theta), score=score)
+            for counts, assigned, activity in modules
+        ]
+        distances = distance_from_similarity(fuse_modules(parts)[places])
+        recall[theta] = recall_at_n(distances, ground_truth, [1])[1]
+    best = max(recall, key=lambda t: (recall[t], -t))
+    return best, recall
 
 
 def ensemble_similarity(members: Sequence[np.ndarray]) -> np.ndarray:

@@ -13,28 +13,35 @@ with dimensionless conductances, i.e. conductances in units of the leak conducta
 In PyNN units this is ``cm = tau_m`` (nF = ms, so ``g_leak = cm / tau_m = 1 uS``) and
 weights in uS; :func:`build_module` does exactly that.
 
-Parameters (defaults = the paper's Table and the published code where the paper is
-silent): tau_e 100 ms, E_rest,e -65 mV, tau_i 10 ms, E_rest,i -60 mV, E_exc 0 mV,
-E_inh,e -100 mV, E_inh,i -85 mV, tau_ge 1 ms, tau_gi 0.5 ms; theta_plus 0.05 mV,
-tau_theta 1e7 ms; eta_pre 1e-4, eta_post 1e-2, w_max 1, mu 1. From the published code:
-v_thresh,e -52 mV with theta starting at 0 (their theta starts at 20 mV and the
-threshold subtracts a 20 mV offset, which is the same threshold), v_reset,e -65 mV,
-refractory 5 ms (exc) and 2 ms (inh), v_reset,i -45 mV, v_thresh,i -40 mV, initial
-weights ``(U(0, 1) + 0.01) * 0.3`` = U(0.003, 0.303), input delays U(0, 10) ms (here
-U(dt_min, 10) with ``dt_min`` = 0.5 ms, the simulator's minimum delay at the default
-step; Brian2 rounds shorter delays to whole steps as well).
+Parameters (defaults = the authors' published code, QVPR/VPRSNN
+``non_modular_snn/snn_model.py``, where it and the paper's text differ; see
+:mod:`neurovpr.models.modular_snn` for the list): tau_e 100 ms, E_rest,e -65 mV,
+tau_i 10 ms, E_rest,i -60 mV, E_exc 0 mV, E_inh,e -100 mV, E_inh,i -85 mV, tau_ge 1 ms,
+tau_gi 0.5 ms; theta_plus 0.05 mV, tau_theta 1e7 ms; v_thresh,e -52 mV with theta
+starting at 0 (the code's theta starts at 20 mV and its threshold subtracts a 20 mV
+offset, which is the same threshold), v_reset,e -65 mV, v_reset,i -45 mV,
+v_thresh,i -40 mV, refractory 2 ms (inh); initial weights ``(U(0, 1) + 0.01) * 0.3`` =
+U(0.003, 0.303), input delays U(0, 10) ms (here U(dt_min, 10) with ``dt_min`` = 0.1 ms,
+the simulator's minimum delay at the default step, Brian2's 0.1 ms; Brian2 rounds shorter
+delays to whole steps as well).
 
-Learning rule. ``stdp="paper"`` (default) is the paper's equation,
+Excitatory refractoriness. The code clamps the membrane for ``refrac_e`` = 5 ms
+(``(unless refractory)``) but tests the threshold together with ``timer > refrac_e``,
+where ``dtimer/dt = 0.1`` and ``timer = 0`` at a spike: a neuron cannot fire again for
+50 ms. Here that is ``IF_cond_exp_adaptive(tau_refrac=refrac_e, tau_lockout=lockout_e)``
+with ``refrac_e = 5``, ``lockout_e = 50`` (``lockout_e = 0`` gives the paper's 5 ms).
+
+Learning rule. ``stdp="code"`` (default) is the code's triplet rule,
+``DiehlCookSTDP(pre_term="potentiate", mu=0, x_tar=0, tau_post2=40)``: at a presynaptic
+arrival ``w += eta_pre * x_post`` (a potentiation: the code writes ``w + nu_ee_pre *
+post1``, where Diehl & Cook's own code subtracts), at a postsynaptic spike
+``w += eta_post * x_pre * x_post2`` (``x_post2`` just before the spike), traces set to
+1, weights clipped to ``[0, w_max]``. ``stdp="paper"`` is the paper's equation,
 ``DiehlCookSTDP(eta_pre, eta_post, w_max, mu=1)``: depression ``eta_pre * x_post`` at a
 presynaptic spike, potentiation ``eta_post * x_pre * (w_max - w) ** mu`` at a
-postsynaptic spike. ``stdp="published"`` is the published code's triplet form,
-``DiehlCookSTDP(tau_post2=40, mu=0)``: potentiation ``eta_post * x_pre * x_post2``.
-Two details of that code are *not* reproduced and are stated here instead: its
-presynaptic term has a ``+`` sign (``w + nu_pre * post1``, potentiation), which the
-IR's ``DiehlCookSTDP`` (``eta_pre >= 0``, always a depression) cannot express; and its
-refractory timer grows at 0.1 ms per ms (``dtimer/dt = 0.1``), so an excitatory neuron
-cannot fire again for 50 ms although its membrane is only clamped for 5 ms. Set
-``refrac_e`` to change the refractory period.
+postsynaptic spike. The code applies the presynaptic update after delivering the spike
+with the old weight; the IR updates first (a difference of at most ``eta_pre`` = 1e-4
+in one delivered weight).
 """
 
 from __future__ import annotations
@@ -55,7 +62,7 @@ INPUT, EXC, INH = "pixels", "exc", "inh"
 #: Name of the learned projection.
 INPUT_PROJECTION = f"{INPUT}->{EXC}"
 
-_STDP_FORMS = ("paper", "published")
+_STDP_FORMS = ("code", "paper")
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -70,6 +77,7 @@ class ModuleParameters:
     v_reset_e: float = -65.0
     v_thresh_e: float = -52.0
     refrac_e: float = 5.0
+    lockout_e: float = 50.0
     e_exc: float = 0.0
     e_inh_e: float = -100.0
     theta_plus: float = 0.05
@@ -88,10 +96,10 @@ class ModuleParameters:
     w_ie: float = 17.0
     w_init_low: float = 0.003
     w_init_high: float = 0.303
-    delay_min: float = 0.5
+    delay_min: float = 0.1
     delay_max: float = 10.0
     # learning
-    stdp: str = "paper"
+    stdp: str = "code"
     eta_pre: float = 1e-4
     eta_post: float = 1e-2
     w_max: float = 1.0
@@ -117,7 +125,7 @@ class ModuleParameters:
         for name in positive:
             if getattr(self, name) <= 0:
                 raise nv.ValidationError(f"ModuleParameters.{name} must be > 0, got {getattr(self, name)!r}.")
-        nonneg = ("refrac_e", "refrac_i", "theta_plus", "w_ei", "w_ie", "eta_pre", "eta_post", "mu", "w_init_low")
+        nonneg = ("refrac_e", "lockout_e", "refrac_i", "theta_plus", "w_ei", "w_ie", "eta_pre", "eta_post", "mu", "w_init_low")
         for name in nonneg:
             if getattr(self, name) < 0:
                 raise nv.ValidationError(f"ModuleParameters.{name} must be >= 0, got {getattr(self, name)!r}.")
@@ -152,7 +160,7 @@ class ModuleParameters:
         return cls(**data)
 
     def learning_rule(self, seed: int | None = None) -> nv.DiehlCookSTDP:
-        """The input projection's synapse: initial weights, delays and the chosen STDP form.
+        """The input projection's synapse: initial weights, delays and the chosen STDP form (``mu`` is the paper's).
 
         With ``seed``, the initial weights and delays are drawn here, from
         ``numpy.random.default_rng([seed, 0])``, and stored in the graph as
@@ -180,8 +188,8 @@ class ModuleParameters:
             "tau_pre": self.tau_pre,
             "tau_post": self.tau_post,
         }
-        if self.stdp == "published":
-            return nv.DiehlCookSTDP(mu=0.0, tau_post2=self.tau_post2, **common)
+        if self.stdp == "code":
+            return nv.DiehlCookSTDP(mu=0.0, x_tar=0.0, tau_post2=self.tau_post2, pre_term="potentiate", **common)
         return nv.DiehlCookSTDP(mu=self.mu, **common)
 
 
@@ -214,8 +222,8 @@ def build_module(
     net.add_population(INPUT, p.n_input, nv.SpikeSourcePoisson(rate=0.0))
     exc = nv.IF_cond_exp_adaptive(
         cm=p.tau_e, tau_m=p.tau_e, v_rest=p.v_rest_e, v_reset=p.v_reset_e, v_thresh=p.v_thresh_e,
-        tau_refrac=p.refrac_e, tau_syn_E=p.tau_ge, tau_syn_I=p.tau_gi, e_rev_E=p.e_exc, e_rev_I=p.e_inh_e,
-        theta_plus=p.theta_plus, tau_theta=p.tau_theta, theta_init=0.0,
+        tau_refrac=p.refrac_e, tau_lockout=p.lockout_e, tau_syn_E=p.tau_ge, tau_syn_I=p.tau_gi, e_rev_E=p.e_exc,
+        e_rev_I=p.e_inh_e, theta_plus=p.theta_plus, tau_theta=p.tau_theta, theta_init=0.0,
     )  # fmt: skip
     inh = nv.IF_cond_exp(
         cm=p.tau_i, tau_m=p.tau_i, v_rest=p.v_rest_i, v_reset=p.v_reset_i, v_thresh=p.v_thresh_i,

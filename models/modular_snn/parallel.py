@@ -91,12 +91,13 @@ def train_job(
     ``settings`` is :meth:`TrainingSettings.as_dict` as JSON (plain data crosses
     process boundaries). ``reference`` holds the ``n_traverses`` training traverses'
     images one after another (``(n_traverses * N, pixels)``, the reference first).
-    The record holds the module's places, its responses to them (``own_responses``,
-    summed over the training traverses, for the assignment), the total spikes and the
-    number of training images each neuron fired for, over the images of every training
-    traverse (``total_spikes``, ``images_fired``, for hyperactive-neuron detection;
-    ``n_traverses`` says how many traverses they cover), the seed, the timing and the
-    job's fingerprint.
+    The record holds the module's places, its mean responses to them over the last
+    training presentations (``own_responses``, for the assignment, see
+    :func:`.training.train_module`), the total spikes and the number of reference images
+    each neuron fired for with learning off, over the images of the first (main)
+    reference traverse, as VPRSNN's ``record`` mode counts them (``total_spikes``,
+    ``images_fired``, for hyperactive-neuron detection; ``n_traverses`` says how many
+    traverses were trained on), the seed, the timing and the job's fingerprint.
     """
     cfg = TrainingSettings.from_dict(json.loads(settings))
     places = np.asarray(places, dtype=np.int64)
@@ -105,13 +106,13 @@ def train_job(
         raise nv.ValidationError(f"module {name!r}: {len(reference)} training images cannot be {t} traverses of equal length.")
     n_ref = len(reference) // t
     traverses = [reference[k * n_ref : (k + 1) * n_ref] for k in range(t)]
-    network, responses, timing = train_module(traverses[0], places, cfg, seed, name=name, extra_references=traverses[1:])
-    own = responses.reshape(t, n_ref, -1)[:, places].sum(axis=0, dtype=responses.dtype)
+    network, own, responses, timing = train_module(traverses[0], places, cfg, seed, name=name, extra_references=traverses[1:])
+    main = responses[:n_ref]
     record = npz_bytes(
         places=places,
         own_responses=own,
-        total_spikes=reference_activity(responses, measure="spikes"),
-        images_fired=reference_activity(responses, measure="images"),
+        total_spikes=reference_activity(main, measure="spikes"),
+        images_fired=reference_activity(main, measure="images"),
         n_traverses=np.int64(t),
         theta=network.populations["exc"].cell_type.theta_init,
         seed=np.int64(seed),

@@ -4,13 +4,16 @@
 traverse (28x28, patch-normalised), adds the reference traverse of every
 ``--extra-reference`` dataset as further training images of the same places (place
 ``i`` of each is place ``i`` of the main reference, as the paper trains on two reference
-traverses; see :mod:`.runs`), trains every module of every ensemble member in
-parallel (local processes, or Dask with ``--scheduler``) into ``RUN_DIR`` and writes
-``run.json``. ``eval`` shows the query traverse to every module (cached in the run),
-builds the members' and the ensemble's similarity and distance matrices, applies
-sequence matching of length ``--seq-len`` (Eq. 13, identity kernel, ``valid`` mode),
-and reports Recall@N, precision at 100% recall and the PR AUC next to SAD and Perfect
-Memory on the same images, as JSON plus PNG plots in ``RUN_DIR/eval`` (or ``--report``).
+traverses; see :mod:`.runs`), sets ``--calibration-places`` aside (default: about 20 % of
+the places in whole modules, none below three modules), trains every module of every
+ensemble member in parallel (local processes, or Dask with ``--scheduler``) into
+``RUN_DIR`` and writes ``run.json``. ``eval`` shows the query traverse to every module
+(cached in the run), calibrates each member's hyperactive threshold on the calibration
+places, builds the members' and the ensemble's similarity and distance matrices on the
+other (reported) places, applies sequence matching of length ``--seq-len`` (Eq. 13,
+identity kernel, ``valid`` mode), and reports Recall@N, precision at 100% recall, the PR
+AUC and the concentration of the best matches next to SAD and Perfect Memory on the same
+images, as JSON plus PNG plots in ``RUN_DIR/eval`` (or ``--report``).
 """
 
 from __future__ import annotations
@@ -33,7 +36,17 @@ from .deployment import deployed_network, deployment_form, static_network
 from .network import ModuleParameters
 from .parallel import default_workers
 from .report import evaluate_similarities, write_plots
-from .runs import describe_plan, member_similarities, query_responses, reference_digest, train_run
+from .runs import (
+    RUN_FORMAT,
+    calibration_places,
+    default_calibration_places,
+    describe_plan,
+    member_similarities,
+    query_responses,
+    reference_digest,
+    split_queries,
+    train_run,
+)
 from .training import TrainingSettings
 
 __all__ = ["ModularSNNPlugin", "load_traverse"]
@@ -47,12 +60,14 @@ _TRAIN_DEFAULTS: dict[str, Any] = {
     "extra_reference": None,
     "workers": None,
     "max_modules": None,
-    "stdp": "paper",
-    "hyperactive": "spikes",
+    "stdp": "code",
+    "hyperactive": "images",
     "theta": None,
-    "place_score": "sum",
-    "place_order": "route",
-    "dt": 0.5,
+    "place_score": "standard",
+    "place_order": "shuffled",
+    "calibration_places": None,
+    "assignment_presentations": 250,
+    "dt": 0.1,
     "simulate_rest": False,
     "no_progress": False,
 }
@@ -142,12 +157,20 @@ class ModularSNNPlugin(ModelPlugin):
         )
         _add(parser, "--workers", type=int, help="local worker processes (default: the CPU cores)")
         _add(parser, "--max-modules", type=int, help="train at most N unfinished modules, then stop (continue with --resume)")
-        _add(parser, "--stdp", choices=("paper", "published"), help="learning rule form (default paper)")
-        _add(parser, "--hyperactive", choices=("spikes", "images"), help="hyperactive activity measure (default spikes)")
-        _add(parser, "--theta", type=float, help="fixed hyperactive threshold (default: drawn per member)")
-        _add(parser, "--place-score", choices=("sum", "mean"), help="place score of assigned neurons (default sum)")
-        _add(parser, "--place-order", choices=("route", "shuffled"), help="how places are cut into modules (default route)")
-        _add(parser, "--dt", type=float, help="time step in ms (default 0.5)")
+        _add(parser, "--stdp", choices=("code", "paper"), help="learning rule: the authors' code or the paper's equation "
+             "(default code)")  # fmt: skip
+        _add(parser, "--hyperactive", choices=("images", "spikes"), help="hyperactive activity: reference images fired "
+             "for, or spikes (default images)")  # fmt: skip
+        _add(parser, "--theta", type=float, help="fixed hyperactive threshold (default: calibrated per member)")
+        _add(parser, "--calibration-places", type=int, help="places set aside to calibrate the hyperactive threshold "
+             "(default: about 20%% of the places in whole modules, none below three modules)")  # fmt: skip
+        _add(parser, "--place-score", choices=("standard", "sum"), help="place score: spikes per assigned neuron, or "
+             "the sum (default standard)")  # fmt: skip
+        _add(parser, "--place-order", choices=("shuffled", "route"), help="places of a module: random per member, or "
+             "consecutive (default shuffled)")  # fmt: skip
+        _add(parser, "--assignment-presentations", type=int, help="assign neurons from this many last training "
+             "presentations (default 250)")  # fmt: skip
+        _add(parser, "--dt", type=float, help="time step in ms (default 0.1, as the authors' code)")
         _add(parser, "--simulate-rest", action="store_true", help="simulate the 150 ms rest instead of reset()")
         _add(parser, "--no-progress", action="store_true", help="no progress bars")
 
@@ -169,7 +192,8 @@ class ModularSNNPlugin(ModelPlugin):
         workers = int(opt["workers"] or default_workers())
         if workers < 1:
             raise nv.ValidationError(f"--workers is {workers}, expected at least 1.")
-        params = ModuleParameters(stdp=opt["stdp"], n_neurons=int(opt["neurons"]))
+        # input delays start at one step (the simulator's minimum delay)
+        params = ModuleParameters(stdp=opt["stdp"], n_neurons=int(opt["neurons"]), delay_min=max(0.1, float(opt["dt"])))
         settings = TrainingSettings(
             params=params,
             coding=RateCoding(),
@@ -178,6 +202,7 @@ class ModularSNNPlugin(ModelPlugin):
             dt=float(opt["dt"]),
             simulate_rest=bool(opt["simulate_rest"]),
             backend=backend,
+            assignment_presentations=int(opt["assignment_presentations"]),
         )
         chosen.check_network(settings.network("modular_snn_module"))
         traverse = load_traverse(args.data, opt["places"])
@@ -189,9 +214,19 @@ class ModularSNNPlugin(ModelPlugin):
             )
         extra_paths = [Path(p) for p in (opt["extra_reference"] or [])]
         extras = load_extra_references(extra_paths, args.data, traverse.n_reference, opt["places"], not opt["no_progress"])
+        n_cal = opt["calibration_places"]
+        n_cal = default_calibration_places(traverse.n_reference, settings.module_size) if n_cal is None else int(n_cal)
+        if not 0 <= n_cal < traverse.n_reference:
+            raise nv.ValidationError(
+                f"--calibration-places is {n_cal}, expected 0..{traverse.n_reference - 1} for {traverse.n_reference} places."
+            )
+        if n_cal and not split_queries(traverse.ground_truth, calibration_places(traverse.n_reference, n_cal))[0].size:
+            raise nv.ValidationError(
+                f"no query of {args.data} matches only calibration places; pass --calibration-places 0 or --theta."
+            )
         reference = traverse.reference.preprocessed(progress=not opt["no_progress"])
-        note = describe_plan(len(reference), settings.module_size)
-        if len(reference) % settings.module_size:
+        note = describe_plan(len(reference), settings.module_size, n_cal)
+        if (len(reference) - n_cal) % settings.module_size or n_cal % settings.module_size:
             print(f"note: {note}.", file=sys.stderr)
         info = {
             "data": str(Path(args.data).resolve()),
@@ -206,6 +241,7 @@ class ModularSNNPlugin(ModelPlugin):
             members=int(opt["members"]),
             seed=int(args.seed),
             place_order=opt["place_order"],
+            n_calibration=n_cal,
             hyperactive=opt["hyperactive"],
             theta=opt["theta"],
             score=opt["place_score"],
@@ -224,7 +260,7 @@ class ModularSNNPlugin(ModelPlugin):
         """Evaluate the run in ``args.run`` (see the module docstring)."""
         opt = {k: _opt(args, k, _EVAL_DEFAULTS) for k in _EVAL_DEFAULTS}
         run_dir = Path(args.run)
-        if run_info.get("format") != "neurovpr-modular-snn-run/1":
+        if run_info.get("format") != RUN_FORMAT:
             raise nv.ValidationError(f"{run_dir}/run.json is not a complete Modular SNN run (format {run_info.get('format')!r}).")
         backend = getattr(args, "backend", None) or run_info["backend"]
         progress = not opt["no_progress"]
@@ -239,9 +275,11 @@ class ModularSNNPlugin(ModelPlugin):
             run_dir, run_info, query, backend=backend, workers=workers, scheduler=getattr(args, "scheduler", None),
             progress=progress,
         )  # fmt: skip
-        sims = member_similarities(run_dir, run_info, counts, members=range(used))
-        result = evaluate_similarities(sims, reference, query, traverse.ground_truth, seq_lens=(seq_len,))
+        ms = member_similarities(run_dir, run_info, counts, traverse.ground_truth, members=range(used))
+        gt = traverse.ground_truth.subset(ms.places, ms.queries)
+        result = evaluate_similarities(ms.similarities, reference[ms.places], query[ms.queries], gt, seq_lens=(seq_len,))
         level = result["by_seq_len"][str(seq_len)]
+        concentration = level["concentration"]
         report_dir = Path(opt["report"]) if opt["report"] is not None else run_dir / "eval"
         files = write_plots(result, report_dir, seq_len, tag=f"{backend}_L{seq_len}")
         out = {
@@ -251,10 +289,18 @@ class ModularSNNPlugin(ModelPlugin):
             "seq_len": seq_len,
             "ensemble_size": used,
             "metrics": level["ensemble"] if used > 1 else level["members"][0],
+            "concentration": concentration["ensemble"] if used > 1 else concentration["members"][0],
             "modular_snn": level["members"][0],
             "members": level["members"],
             "mean_of_members": level["mean_of_members"],
             "baselines": level["baselines"],
+            "baseline_concentration": {name: concentration[name] for name in level["baselines"]},
+            "reported": {"places": int(ms.places.size), "queries": int(ms.queries.size)},
+            "calibration": {
+                "places": len(run_info["calibration_places"]),
+                "hyperactive_thresholds": ms.thresholds,
+                "recall_at_1_by_threshold": [{str(k): v for k, v in r.items()} for r in ms.calibration],
+            },
             "plan": run_info.get("plan"),
             "files": {k: str(v) for k, v in files.items()},
         }
@@ -293,7 +339,7 @@ class ModularSNNPlugin(ModelPlugin):
 
         run_dir = Path(run_dir)
         run_info = read_run_info(run_dir)
-        if run_info.get("format") != "neurovpr-modular-snn-run/1":
+        if run_info.get("format") != RUN_FORMAT:
             raise nv.ValidationError(f"{run_dir}/run.json is not a complete Modular SNN run (format {run_info.get('format')!r}).")
         chosen = nv.get_backend(backend)
         learns = chosen.capabilities.learns
@@ -333,9 +379,10 @@ class ModularSNNPlugin(ModelPlugin):
         finally:
             bar.close()
         counts = {str(mod["name"]): results[i]["counts"] for i, mod in enumerate(modules)}
-        sims = member_similarities(run_dir, run_info, counts)
-        similarity = ensemble_similarity(sims)
-        metrics = evaluate(distance_from_similarity(similarity), traverse.ground_truth, n_values=N_VALUES)
+        ms = member_similarities(run_dir, run_info, counts, traverse.ground_truth)
+        similarity = ensemble_similarity(ms.similarities)
+        gt = traverse.ground_truth.subset(ms.places, ms.queries)
+        metrics = evaluate(distance_from_similarity(similarity), gt, n_values=N_VALUES)
         n_q = len(query)
         stats = [results[i]["stats"] for i in range(len(modules))]
         keys = [str(k) for k in results[0]["stat_keys"]]
@@ -347,8 +394,8 @@ class ModularSNNPlugin(ModelPlugin):
             "notes": notes,
             "deployment": form,
             "metrics": metrics,
-            "predictions": np.argmax(similarity, axis=0).astype(np.int64),
-            "output_counts": np.concatenate([counts[str(m["name"])] for m in modules], axis=1),
+            "predictions": ms.places[np.argmax(similarity, axis=0)].astype(np.int64),
+            "output_counts": np.concatenate([counts[str(m["name"])] for m in modules], axis=1)[ms.queries],
             "seconds_per_query": float(sum(float(results[i]["seconds"]) for i in range(len(modules))) / n_q),
             "activity": activity,
         }

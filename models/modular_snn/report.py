@@ -16,6 +16,7 @@ from typing import Any
 
 import numpy as np
 
+from neurovpr.evaluation.concentration import match_concentration
 from neurovpr.evaluation.metrics import distance_from_similarity, evaluate, precision_recall, recall_at_n
 from neurovpr.evaluation.plots import plot_distance_matrix, plot_pr_curves, plot_recall_at_n
 from neurovpr.evaluation.sequence import crop_ground_truth, identity_kernel
@@ -52,6 +53,10 @@ def _score(d: np.ndarray, gt: Any, seq_len: int) -> dict[str, float]:
     return {k: round(float(v), 6) for k, v in evaluate(dd, gg, n_values=N_VALUES).items()}
 
 
+def _concentration(d: np.ndarray, gt: Any, seq_len: int) -> dict[str, float]:
+    return match_concentration(_sequence(d, gt, seq_len)[0])
+
+
 def evaluate_similarities(
     similarities: Sequence[np.ndarray],
     reference: np.ndarray,
@@ -66,8 +71,10 @@ def evaluate_similarities(
     -------
     dict
         ``{"by_seq_len": {"L": {"members": [...], "mean_of_members": {...},
-        "ensemble": {...}, "baselines": {"SAD": {...}, "Perfect Memory": {...}}}},
-        "distances": method_distances(...), "ground_truth": ground_truth}``.
+        "ensemble": {...}, "baselines": {"SAD": {...}, "Perfect Memory": {...}},
+        "concentration": {"members": [...], "ensemble": {...}, "SAD": {...}, "Perfect Memory": {...}}}},
+        "distances": method_distances(...), "ground_truth": ground_truth}``; ``concentration``
+        is :func:`neurovpr.evaluation.concentration.match_concentration` of each method.
     """
     dist = method_distances(similarities, reference, query)
     by_len: dict[str, Any] = {}
@@ -78,6 +85,10 @@ def evaluate_similarities(
             "mean_of_members": {k: round(float(np.mean([m[k] for m in members])), 6) for k in members[0]},
             "ensemble": _score(dist["ensemble"], ground_truth, seq_len),
             "baselines": {name: _score(dist[name], ground_truth, seq_len) for name in ("SAD", "Perfect Memory")},
+            "concentration": {
+                "members": [_concentration(d, ground_truth, seq_len) for d in dist["members"]],
+                **{name: _concentration(dist[name], ground_truth, seq_len) for name in ("ensemble", "SAD", "Perfect Memory")},
+            },
         }
     return {"by_seq_len": by_len, "distances": dist, "ground_truth": ground_truth}
 

@@ -7,26 +7,33 @@ Layout of ``RUN_DIR``::
     modules/m00_k000.npz          its record (places, responses, counts, seed, timing)
     query/<backend>/m00_k000.npz  cached query responses (eval), keyed by the query data
 
-Plan. The ``R`` reference places are cut into modules of ``module_size`` consecutive
-places (``place_order="route"``), or of consecutive places of a permutation drawn per
-member (``"shuffled"``, as VPRSNN's shuffled place order); when ``R`` is not a multiple
-of ``module_size`` the remainder forms a last, smaller module. Each of the ``M``
-members has its own modules; module ``k`` of member ``m`` is seeded with
-``derive_seed(seed, m, 0, k)`` (initial weights, delays, Poisson spikes, presentation
-order), member ``m``'s place permutation and hyperactive threshold theta with
+Plan. Each of the ``M`` members cuts the ``R`` reference places into modules of
+``module_size`` places. ``place_order="shuffled"`` (default) is VPRSNN's split
+(``tools/snn_model_utils.py: get_shuffled_indices``): ``n_calibration`` calibration
+places, the first of a permutation drawn with seed 42 (the same for every member), in
+an order shuffled with the member's seed, then the other places in an order shuffled
+with it, so each member has its own random split of places into modules (the diversity
+the ensemble relies on); modules take consecutive runs of that list, calibration places
+and reported places never in one module. ``"route"`` takes the calibration places (the
+same set) and the other places in route order (geographically contiguous regions).
+When a part is not a multiple of ``module_size`` its remainder forms a last, smaller
+module. Module ``k`` of member ``m`` is seeded with ``derive_seed(seed, m, 0, k)``
+(initial weights, delays, Poisson spikes, presentation order), member ``m``'s split with
 ``derive_seed(seed, m, 1)``.
+
+Calibration and reported places. The calibration modules and the calibration queries
+(queries whose matches are all calibration places) choose each member's hyperactive
+threshold (:func:`.inference.calibrate_threshold`, as the code's ``calibrate`` mode);
+the other modules, places and queries are the ones evaluated and reported, as the code's
+``test`` mode (:func:`member_similarities`). Without calibration places (or with a fixed
+``theta``) nothing is calibrated and every place is reported.
 
 Training traverses. Every module trains on its places in the reference traverse and,
 when given, in extra reference traverses of the same places (``extra_references``;
-see :mod:`.training`). As VPRSNN's ``get_new_assignments`` does with the training
-responses of every training image and its place label, a neuron's response to a place
-is taken over all training traverses: the module record's ``own_responses`` are the
-learning-off spike counts summed over the traverses (the same argmax as VPRSNN's mean
-rate per label, since every place has one image per traverse). Hyperactive activity
-(total spikes, or images fired for) is counted over every training image and divided
-by the number of traverses before it is compared with theta, so theta keeps the scale
-of one reference set for which its range U(40, 100) / U(600, 800) was drawn. With no
-extra traverse all of this reduces to the single-traverse computation.
+see :mod:`.training`). The assignment responses average a place's last training
+presentations over all traverses (VPRSNN's ``get_new_assignments`` on the training run);
+hyperactive activity is counted over the main reference traverse, as VPRSNN's ``record``
+mode shows the first training traverse.
 
 Resume. A module counts as finished when its ``.npz`` record exists (it is written
 after the network file, both atomically) and carries the fingerprint of the same job
@@ -39,6 +46,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -48,11 +56,14 @@ from typing import Any
 import numpy as np
 
 import neurovpr as nv
+from neurovpr.data.ground_truth import GroundTruth
 from neurovpr.fileio import atomic_write_bytes, atomic_write_text
 
 from .inference import (
+    SCORES,
+    THRESHOLDS,
     assign_neurons,
-    draw_hyperactive_threshold,
+    calibrate_threshold,
     fuse_modules,
     hyperactive_neurons,
     module_similarity,
@@ -62,6 +73,11 @@ from .training import TrainingSettings, derive_seed
 
 __all__ = [
     "ModulePlan",
+    "MemberSimilarities",
+    "place_split",
+    "calibration_places",
+    "default_calibration_places",
+    "split_queries",
     "make_plan",
     "describe_plan",
     "digest",
@@ -73,18 +89,22 @@ __all__ = [
 ]
 
 #: ``run.json`` format tag of this model.
-RUN_FORMAT = "neurovpr-modular-snn-run/1"
-PLACE_ORDERS = ("route", "shuffled")
+RUN_FORMAT = "neurovpr-modular-snn-run/2"
+PLACE_ORDERS = ("shuffled", "route")
+MEASURES = ("images", "spikes")
+#: The seed of VPRSNN's draw of the calibration places (the same for every member).
+_CALIBRATION_SEED = 42
 
 
 @dataclass(frozen=True, slots=True)
 class ModulePlan:
-    """One module job: which member and module, its name, places and seed."""
+    """One module job: which member and module, its name, places and seed, and whether it calibrates."""
 
     member: int
     module: int
     places: np.ndarray
     seed: int
+    calibration: bool = False
 
     @property
     def name(self) -> str:
@@ -92,36 +112,88 @@ class ModulePlan:
         return f"m{self.member:02d}_k{self.module:03d}"
 
 
-def make_plan(n_places: int, module_size: int, members: int, seed: int, place_order: str = "route") -> list[ModulePlan]:
-    """Every module of every member, member-major."""
+def calibration_places(n_places: int, n_calibration: int) -> np.ndarray:
+    """The calibration places, sorted: the first ``n_calibration`` of VPRSNN's seed-42 permutation."""
+    n, c = int(n_places), int(n_calibration)
+    if not 0 <= c < n:
+        raise nv.ValidationError(f"calibration places: {c} of {n} places, expected 0..{n - 1}.")
+    return np.sort(np.random.RandomState(_CALIBRATION_SEED).permutation(n)[:c])
+
+
+def default_calibration_places(n_places: int, module_size: int) -> int:
+    """About 20 % of the places in whole modules (VPRSNN: 600 of 3,300), none below three modules' worth."""
+    n_cal = int(module_size) * math.floor(0.2 * int(n_places) / int(module_size) + 0.5)
+    return n_cal if n_cal < int(n_places) and int(n_places) >= 3 * int(module_size) else 0
+
+
+def place_split(n_places: int, n_calibration: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    """VPRSNN's ``get_shuffled_indices``: the calibration places and the other places, each in a shuffled order.
+
+    Draws as that function does: the calibration places from a permutation with seed 42,
+    then, from one generator seeded with ``seed``, a shuffle of them, a permutation of
+    every place (which only advances the generator) and a shuffle of the other places.
+    """
+    cal = np.random.RandomState(_CALIBRATION_SEED).permutation(int(n_places))[: int(n_calibration)]
+    rng = np.random.RandomState(int(seed))
+    rng.shuffle(cal)
+    rest = np.setdiff1d(rng.permutation(int(n_places)), cal)
+    rng.shuffle(rest)
+    return cal, rest
+
+
+def make_plan(
+    n_places: int, module_size: int, members: int, seed: int, place_order: str = "shuffled", n_calibration: int = 0
+) -> list[ModulePlan]:
+    """Every module of every member, member-major: calibration modules first (see the module docstring)."""
     if int(n_places) < 1:
         raise nv.ValidationError(f"the reference set has {n_places} places, expected at least 1.")
     if not 1 <= int(members) <= 100:
         raise nv.ValidationError(f"ensemble size is {members}, expected 1..100 members.")
     if place_order not in PLACE_ORDERS:
         raise nv.ValidationError(f"place order is {place_order!r}, expected one of {', '.join(PLACE_ORDERS)}.")
+    cal_set = calibration_places(n_places, n_calibration)
     plan = []
     for m in range(int(members)):
-        order = np.arange(n_places)
         if place_order == "shuffled":
-            order = np.random.default_rng(derive_seed(seed, m, 1)).permutation(n_places)
-        for k, start in enumerate(range(0, n_places, module_size)):
-            places = np.sort(order[start : start + module_size])
-            plan.append(ModulePlan(member=m, module=k, places=places, seed=derive_seed(seed, m, 0, k)))
+            cal, rest = place_split(n_places, n_calibration, derive_seed(seed, m, 1))
+        else:
+            cal, rest = cal_set, np.setdiff1d(np.arange(n_places), cal_set)
+        chunks = [(cal[i : i + module_size], True) for i in range(0, cal.size, module_size)]
+        chunks += [(rest[i : i + module_size], False) for i in range(0, rest.size, module_size)]
+        for k, (places, calibrates) in enumerate(chunks):
+            plan.append(
+                ModulePlan(member=m, module=k, places=np.sort(places), seed=derive_seed(seed, m, 0, k), calibration=calibrates)
+            )
     return plan
 
 
-def describe_plan(n_places: int, module_size: int) -> str:
-    """One sentence: how the places split into modules (naming a smaller last module)."""
-    full, rest = divmod(int(n_places), int(module_size))
-    if rest == 0:
-        return f"{n_places} places in {full} module(s) of {module_size}"
-    if full == 0:
-        return f"{n_places} places in 1 module of {rest} (fewer than the module size {module_size})"
-    return (
-        f"{n_places} places in {full} module(s) of {module_size} and a last, smaller module of {rest} "
-        f"({n_places} is not a multiple of {module_size})"
-    )
+def describe_plan(n_places: int, module_size: int, n_calibration: int = 0) -> str:
+    """One sentence: how the places split into modules (naming a smaller last module and the calibration part)."""
+
+    def part(n: int) -> str:
+        full, rest = divmod(int(n), int(module_size))
+        if rest == 0:
+            return f"{n} places in {full} module(s) of {module_size}"
+        if full == 0:
+            return f"{n} places in 1 module of {rest} (fewer than the module size {module_size})"
+        return (
+            f"{n} places in {full} module(s) of {module_size} and a last, smaller module of {rest} "
+            f"({n} is not a multiple of {module_size})"
+        )
+
+    if not n_calibration:
+        return part(n_places)
+    return f"{part(int(n_places) - int(n_calibration))}, reported; {part(n_calibration)}, for calibration"
+
+
+def split_queries(ground_truth: Any, calibration: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(calibration queries, reported queries)``: a query with matches, all among the calibration places, calibrates."""
+    matrix = np.asarray(getattr(ground_truth, "matrix", ground_truth), dtype=bool)
+    in_cal = np.zeros(matrix.shape[0], dtype=bool)
+    in_cal[np.asarray(calibration, dtype=np.int64)] = True
+    has = matrix.any(axis=0)
+    only_cal = has & ~(matrix & ~in_cal[:, None]).any(axis=0)
+    return np.flatnonzero(only_cal), np.flatnonzero(~only_cal)
 
 
 def digest(*parts: Any) -> str:
@@ -171,10 +243,11 @@ def train_run(
     *,
     members: int = 1,
     seed: int = 0,
-    place_order: str = "route",
-    hyperactive: str = "spikes",
+    place_order: str = "shuffled",
+    n_calibration: int = 0,
+    hyperactive: str = "images",
     theta: float | None = None,
-    score: str = "sum",
+    score: str = "standard",
     workers: int = 1,
     scheduler: str | None = None,
     resume: bool = False,
@@ -192,11 +265,13 @@ def train_run(
         Preprocessed reference images ``(R, 28, 28)`` (0..255).
     settings
         Graph, coding and training settings.
-    members, seed, place_order
-        Ensemble size, master seed and how places are cut into modules (see the module docstring).
+    members, seed, place_order, n_calibration
+        Ensemble size, master seed, how places are cut into modules and how many are
+        calibration places (see the module docstring).
     hyperactive, theta, score
-        Hyperactive measure (``"spikes"`` or ``"images"``), a fixed theta (``None``:
-        drawn per member) and the place score (``"sum"`` or ``"mean"``), stored for evaluation.
+        Hyperactive measure (``"images"`` or ``"spikes"``), a fixed threshold (``None``:
+        calibrated per member at evaluation, or 0 without calibration places) and the
+        place score (``"standard"`` or ``"sum"``), stored for evaluation.
     workers, scheduler
         Local worker processes, or a Dask scheduler address.
     resume
@@ -220,11 +295,10 @@ def train_run(
     -------
     dict
         A summary: the plan, modules trained now and skipped, timing per module, and
-        ``"complete"`` (with ``"remaining_modules"`` when modules are left, with the
-        members' ``"thetas"`` when ``run.json`` was written). When every module of the
-        chosen members (``only_members``, or all) is finished, ``"run_info"`` holds
-        what ``run.json`` would hold for those members alone (their modules, every
-        member's theta), for :func:`query_responses` and :func:`member_similarities`.
+        ``"complete"`` (with ``"remaining_modules"`` when modules are left). When every
+        module of the chosen members (``only_members``, or all) is finished,
+        ``"run_info"`` holds what ``run.json`` would hold for those members alone (their
+        modules), for :func:`query_responses` and :func:`member_similarities`.
     """
     run_dir = Path(run_dir)
     images = _as_rows(reference)
@@ -236,10 +310,10 @@ def train_run(
                 f"extra reference traverse {k} has {extra.shape[0]} images of {extra.shape[1]} pixels, but the reference has "
                 f"{n_ref} of {images.shape[1]}; it must hold the same places in the same order."
             )
-    if hyperactive not in ("spikes", "images"):
-        raise nv.ValidationError(f"hyperactive measure is {hyperactive!r}, expected 'spikes' or 'images'.")
-    if score not in ("sum", "mean"):
-        raise nv.ValidationError(f"place score is {score!r}, expected 'sum' or 'mean'.")
+    if hyperactive not in MEASURES:
+        raise nv.ValidationError(f"hyperactive measure is {hyperactive!r}, expected one of {', '.join(MEASURES)}.")
+    if score not in SCORES:
+        raise nv.ValidationError(f"place score is {score!r}, expected one of {', '.join(SCORES)}.")
     if theta is not None and not (np.isfinite(theta) and theta >= 0):
         raise nv.ValidationError(f"hyperactive threshold theta is {theta!r}, expected a number >= 0.")
     if max_modules is not None and max_modules < 1:
@@ -250,7 +324,7 @@ def train_run(
     existing = _modules_dir(run_dir).is_dir() and any(_modules_dir(run_dir).iterdir())
     if (existing or (run_dir / "run.json").exists()) and not resume:
         raise nv.ValidationError(f"{run_dir} already holds a run; pass --resume to continue it or choose another --out.")
-    plan = make_plan(n_ref, settings.module_size, members, seed, place_order)
+    plan = make_plan(n_ref, settings.module_size, members, seed, place_order, n_calibration)
     cfg = json.dumps(settings.as_dict(), sort_keys=True)
     data_digest = digest(images)
     extra_digests = [digest(extra) for extra in extras]
@@ -286,7 +360,7 @@ def train_run(
     remaining = len(unfinished)
     summary: dict[str, Any] = {
         "run": str(run_dir),
-        "plan": describe_plan(n_ref, settings.module_size),
+        "plan": describe_plan(n_ref, settings.module_size, n_calibration),
         "members": int(members),
         "modules_per_member": len(plan) // int(members),
         "training_traverses": n_traverses,
@@ -301,10 +375,6 @@ def train_run(
         summary.update(complete=False, remaining_modules=remaining)
     if any(j.member in chosen for j in unfinished):
         return summary
-    thetas = [
-        float(theta) if theta is not None else draw_hyperactive_threshold(n_ref, _member_rng(seed, m))
-        for m in range(int(members))
-    ]
     done = [j for j in plan if j.member in chosen]
     records = [read_npz(_modules_dir(run_dir) / f"{j.name}.npz") for j in done]
     run_info = {
@@ -320,12 +390,17 @@ def train_run(
         "members": int(members),
         "module_size": settings.module_size,
         "place_order": place_order,
-        "plan": describe_plan(n_ref, settings.module_size),
-        "hyperactive": {"measure": hyperactive, "thetas": thetas},
+        "plan": describe_plan(n_ref, settings.module_size, n_calibration),
+        "calibration_places": calibration_places(n_ref, n_calibration).tolist(),
+        "hyperactive": {"measure": hyperactive, "theta": None if theta is None else float(theta), "thresholds": list(THRESHOLDS)},
         "score": score,
         "settings": settings.as_dict(),
         "modules": [
-            {"member": j.member, "module": j.module, "name": j.name, "seed": j.seed, "places": j.places.tolist()} for j in done
+            {
+                "member": j.member, "module": j.module, "name": j.name, "seed": j.seed, "places": j.places.tolist(),
+                "calibration": j.calibration,
+            }
+            for j in done
         ],
         **{
             f"{key}_per_module": round(float(np.mean([float(r[key]) for r in records])), 3)
@@ -337,13 +412,8 @@ def train_run(
     if remaining:
         return summary
     atomic_write_text(run_dir / "run.json", json.dumps(run_info, indent=1))
-    summary.update(complete=True, thetas=thetas)
+    summary.update(complete=True)
     return summary
-
-
-def _member_rng(seed: int, member: int) -> np.random.Generator:
-    """The generator of member ``member``'s hyperactive threshold."""
-    return np.random.default_rng([derive_seed(seed, member, 1), 1])
 
 
 def _bar(total: int, initial: int, desc: str, enabled: bool) -> Any:
@@ -415,27 +485,89 @@ def query_responses(
     return out
 
 
-def member_similarities(
-    run_dir: str | Path, run_info: dict[str, Any], counts: dict[str, np.ndarray], members: Sequence[int] | None = None
-) -> list[np.ndarray]:
-    """The ``(R, Q)`` similarity matrix of each member: assignment, hyperactive removal, fusion.
+@dataclass(frozen=True, slots=True)
+class MemberSimilarities:
+    """What :func:`member_similarities` returns.
 
-    ``members`` (default: every member with modules in ``run_info``) chooses which, in that order.
+    Attributes
+    ----------
+    similarities
+        One ``(len(places), len(queries))`` matrix per member.
+    places, queries
+        The reported reference places and queries (sorted global indices): every one
+        but the calibration places and queries.
+    thresholds
+        Each member's hyperactive threshold (calibrated, fixed, or 0).
+    calibration
+        Each member's calibration Recall@1 per candidate threshold (empty when none was calibrated).
+    """
+
+    similarities: list[np.ndarray]
+    places: np.ndarray
+    queries: np.ndarray
+    thresholds: list[float]
+    calibration: list[dict[float, float]]
+
+
+def member_similarities(
+    run_dir: str | Path,
+    run_info: dict[str, Any],
+    counts: dict[str, np.ndarray],
+    ground_truth: Any,
+    members: Sequence[int] | None = None,
+) -> MemberSimilarities:
+    """Each member's similarity matrix on the reported places and queries: assignment, hyperactive removal, fusion.
+
+    ``counts`` holds every module's spike counts for every query; ``ground_truth`` is the
+    full ``[reference, query]`` ground truth (it separates the calibration queries, see
+    :func:`split_queries`). A member's threshold is ``run_info``'s fixed one, or, with
+    calibration places, the one :func:`.inference.calibrate_threshold` picks from its
+    calibration modules, or 0. ``members`` (default: every member with modules in
+    ``run_info``) chooses which, in that order.
     """
     run_dir = Path(run_dir)
     n_ref = int(run_info["n_reference"])
-    thetas = run_info["hyperactive"]["thetas"]
+    fixed = run_info["hyperactive"]["theta"]
     measure = run_info["hyperactive"]["measure"]
-    chosen = sorted({int(mod["member"]) for mod in _modules(run_info)}) if members is None else members
-    by_member: dict[int, list[np.ndarray]] = {int(m): [] for m in chosen}
-    for mod in _modules(run_info):
-        m = int(mod["member"])
-        if m not in by_member:
-            continue
-        rec = read_npz(_modules_dir(run_dir) / f"{mod['name']}.npz")
-        assignments = assign_neurons(rec["own_responses"], rec["places"])
-        activity = rec["total_spikes"] if measure == "spikes" else rec["images_fired"]
-        activity = activity / int(rec.get("n_traverses", 1))  # per training traverse (see the module docstring)
-        ignore = hyperactive_neurons(activity, thetas[m])
-        by_member[m].append(module_similarity(counts[mod["name"]], assignments, n_ref, ignore=ignore, score=run_info["score"]))
-    return [fuse_modules(by_member[m]) for m in by_member]
+    thresholds = run_info["hyperactive"]["thresholds"]
+    score = run_info["score"]
+    cal_places = np.asarray(run_info["calibration_places"], dtype=np.int64)
+    cal_queries, queries = split_queries(ground_truth, cal_places)
+    places = np.setdiff1d(np.arange(n_ref), cal_places)
+    if cal_places.size and cal_queries.size == 0:
+        raise nv.ValidationError("no query matches only calibration places, so the hyperactive threshold cannot be calibrated.")
+    chosen = sorted({int(mod["member"]) for mod in _modules(run_info)}) if members is None else list(members)
+    out = MemberSimilarities([], places, queries, [], [])
+    for m in chosen:
+        parts: dict[bool, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {True: [], False: []}
+        for mod in _modules(run_info):
+            if int(mod["member"]) != int(m):
+                continue
+            rec = read_npz(_modules_dir(run_dir) / f"{mod['name']}.npz")
+            assignments = assign_neurons(rec["own_responses"], rec["places"])
+            activity = rec["images_fired"] if measure == "images" else rec["total_spikes"]
+            parts[bool(mod.get("calibration", False))].append((counts[mod["name"]], assignments, activity))
+        recall: dict[float, float] = {}
+        if fixed is not None:
+            theta = float(fixed)
+        elif parts[True]:
+            calibration = [(c[cal_queries], a, act) for c, a, act in parts[True]]
+            gt = _subset_ground_truth(ground_truth, np.sort(cal_places), cal_queries)
+            theta, recall = calibrate_threshold(calibration, n_ref, np.sort(cal_places), gt, score=score, thresholds=thresholds)
+        else:
+            theta = 0.0
+        fused = fuse_modules(
+            [
+                module_similarity(c[queries], a, n_ref, ignore=hyperactive_neurons(act, theta), score=score)
+                for c, a, act in parts[False]
+            ]
+        )
+        out.similarities.append(fused[places])
+        out.thresholds.append(theta)
+        out.calibration.append(recall)
+    return out
+
+
+def _subset_ground_truth(ground_truth: Any, places: np.ndarray, queries: np.ndarray) -> GroundTruth:
+    matrix = np.asarray(getattr(ground_truth, "matrix", ground_truth), dtype=bool)
+    return GroundTruth(matrix=matrix[places][:, queries])

@@ -1,22 +1,29 @@
 """Training one module and recording its responses, on any backend that learns.
 
-Presentation (Diehl & Cook 2015; QVPR/VPRSNN): every 28x28 image becomes 784 Poisson
-rates ``pixel / 4`` Hz (:class:`neurovpr.data.encoding.RateCoding`) shown for 350 ms.
-Before every training image the input weights onto each excitatory neuron are scaled
-to sum to 78 (VPRSNN's ``normalize_weights``; clipped to ``w_max``). A module trains
-on its own places for ``epochs`` passes, in a new shuffled order every pass, and then,
-with learning off, is shown every reference image once: its responses there give the
-neuron assignment (its own places) and the hyperactive-neuron counts (all places).
+Presentation (Diehl & Cook 2015; QVPR/VPRSNN ``non_modular_snn/snn_model.py``): every
+28x28 image becomes 784 Poisson rates ``pixel / 4`` Hz
+(:class:`neurovpr.data.encoding.RateCoding`) shown for 350 ms. Before every training
+image the input weights onto each excitatory neuron are scaled to sum to 78 (VPRSNN's
+``normalize_weights``; clipped to ``w_max``, where the code leaves a weight above it
+until that synapse's next update). A module trains on its own places for ``epochs``
+passes in one random order drawn once and repeated every pass (VPRSNN presents
+``training_data[j % num_training_imgs]``), and then, with learning off, is shown every
+reference image once: those responses give the hyperactive-neuron counts.
+
+Assignment responses (VPRSNN's ``resultPopVecs`` of the training run and
+``get_new_assignments``): the spike counts of the last ``assignment_presentations``
+training presentations (250 in the authors' Nordland commands, ``--update_interval``),
+*while learning*, averaged per place; a neuron is assigned to the place it fired most
+for there (:func:`.inference.assign_neurons`).
 
 Several training traverses (the paper trains on two reference traverses, e.g. Nordland
-spring and fall; VPRSNN's ``get_train_test_datapath``). Extra reference traverses hold
-the same places in the same order (image ``i`` of every traverse is place ``i``). Every
-epoch shows each ``(traverse, place)`` pair once, in one shuffled order over all pairs
-(``T x P`` presentations for ``T`` traverses and ``P`` module places, VPRSNN's
-``num_labels * len(train_data_path) * epochs``); afterwards, with learning off, every
-image of every traverse is shown once, traverse by traverse. With one traverse the
-order generator draws exactly what it drew before (a permutation of ``P`` items per
-epoch), so single-traverse results are unchanged.
+spring and fall; VPRSNN's ``get_train_test_imagenames_path``). Extra reference traverses
+hold the same places in the same order (image ``i`` of every traverse is place ``i``).
+Every epoch shows the module's places in the drawn order on the first traverse, then in
+the same order on the next (VPRSNN's ``segment_array``: ``T x P`` presentations for
+``T`` traverses and ``P`` module places); the assignment averages a place over all its
+presentations in the window; afterwards, with learning off, every image of every
+traverse is shown once, traverse by traverse.
 
 Reset instead of rest (the default, ``simulate_rest=False``). VPRSNN follows each image
 with 150 ms without input. After 150 ms the conductances (tau 1 ms and 0.5 ms) are
@@ -60,16 +67,20 @@ class TrainingSettings:
     coding: RateCoding = field(default_factory=RateCoding)
     epochs: int = 30
     module_size: int = 25
-    dt: float = 0.5
+    dt: float = 0.1
     weight_sum: float = 78.0
     simulate_rest: bool = False
     backend: str = "reference"
+    assignment_presentations: int = 250
 
     def __post_init__(self) -> None:
         if isinstance(self.epochs, bool) or not isinstance(self.epochs, int) or not 1 <= self.epochs <= 1000:
             raise nv.ValidationError(f"epochs is {self.epochs!r}, expected an integer in 1..1000.")
         if isinstance(self.module_size, bool) or not isinstance(self.module_size, int) or not 1 <= self.module_size <= 10_000:
             raise nv.ValidationError(f"module size is {self.module_size!r} places, expected an integer in 1..10000.")
+        window = self.assignment_presentations
+        if isinstance(window, bool) or not isinstance(window, int) or not 1 <= window <= 1_000_000:
+            raise nv.ValidationError(f"assignment presentations is {window!r}, expected an integer in 1..1000000.")
         if not (isinstance(self.dt, (int, float)) and 0 < self.dt <= 10):
             raise nv.ValidationError(f"dt is {self.dt!r} ms, expected a number in (0, 10].")
         if self.params.delay_max > 0 and self.params.delay_min < self.dt * (1 - 1e-9):
@@ -101,6 +112,7 @@ class TrainingSettings:
             "weight_sum": self.weight_sum,
             "simulate_rest": self.simulate_rest,
             "backend": self.backend,
+            "assignment_presentations": self.assignment_presentations,
         }
 
     @classmethod
@@ -118,6 +130,7 @@ class TrainingSettings:
                 weight_sum=float(data["weight_sum"]),
                 simulate_rest=bool(data["simulate_rest"]),
                 backend=str(data["backend"]),
+                assignment_presentations=int(data["assignment_presentations"]),
             )
         except (KeyError, TypeError) as exc:
             raise nv.ValidationError(f"training settings are incomplete or malformed ({exc}).") from None
@@ -198,7 +211,7 @@ def train_module(
     name: str = "module",
     tick: Callable[[], None] | None = None,
     extra_references: Sequence[np.ndarray] = (),
-) -> tuple[nv.Network, np.ndarray, dict[str, float]]:
+) -> tuple[nv.Network, np.ndarray, np.ndarray, dict[str, float]]:
     """Train one module on ``reference[places]`` and record its responses to all of ``reference``.
 
     Parameters
@@ -222,13 +235,15 @@ def train_module(
 
     Returns
     -------
-    network, responses, timing
-        The learned network (weights and thresholds), the ``(T * N, n_neurons)`` spike
-        counts with learning off to every image of the ``T = 1 + len(extra_references)``
-        training traverses (traverse-major: rows ``t * N .. t * N + N - 1`` are traverse
-        ``t``, ``reference`` first), and the wall-clock and CPU seconds of training and
-        recording (``train_seconds``, ``train_cpu_seconds``, ``record_seconds``,
-        ``record_cpu_seconds``).
+    network, assignment, responses, timing
+        The learned network (weights and thresholds); the ``(len(places), n_neurons)``
+        mean spike counts per place over the last ``assignment_presentations`` training
+        presentations (see the module docstring; rows in the order of ``places``); the
+        ``(T * N, n_neurons)`` spike counts with learning off to every image of the
+        ``T = 1 + len(extra_references)`` training traverses (traverse-major: rows
+        ``t * N .. t * N + N - 1`` are traverse ``t``, ``reference`` first); and the
+        wall-clock and CPU seconds of training and recording (``train_seconds``,
+        ``train_cpu_seconds``, ``record_seconds``, ``record_cpu_seconds``).
     """
     images = np.asarray(reference)
     images = images.reshape(images.shape[0], -1)
@@ -252,16 +267,22 @@ def train_module(
     start, cpu_start = time.perf_counter(), time.process_time()
     sim = nv.compile(settings.network(name, seed), backend=settings.backend, dt=settings.dt, seed=int(seed))
     presenter = Presenter(sim, settings)
-    order_rng = np.random.default_rng([int(seed), 1])
+    order = np.random.default_rng([int(seed), 1]).permutation(places.size)  # one order, every epoch
     _, post = sim.connections(INPUT_PROJECTION)
-    n_places = places.size
-    for _ in range(settings.epochs):
-        # one permutation of all (traverse, place) pairs; pair j is traverse j // P, place places[j % P]
-        for pair in order_rng.permutation(len(traverses) * n_places):
+    epoch = [(t, k) for t in range(len(traverses)) for k in order]
+    first_counted = settings.epochs * len(epoch) - settings.assignment_presentations
+    summed = np.zeros((places.size, settings.params.n_neurons))
+    shown = np.zeros(places.size)
+    for e in range(settings.epochs):
+        for j, (t, k) in enumerate(epoch):
             normalise_input_weights(sim, settings.weight_sum, settings.params.w_max, post)
-            presenter.present(traverses[pair // n_places][places[pair % n_places]])
+            counts = presenter.present(traverses[t][places[k]])
+            if e * len(epoch) + j >= first_counted:
+                summed[k] += counts
+                shown[k] += 1
             if tick is not None:
                 tick()
+    assignment = summed / np.maximum(shown, 1)[:, None]
     trained, cpu_trained = time.perf_counter(), time.process_time()
     sim.plasticity(False)
     responses = np.concatenate([record_responses(presenter, t, tick=tick) for t in traverses], axis=0)
@@ -271,4 +292,4 @@ def train_module(
         "record_seconds": time.perf_counter() - trained,
         "record_cpu_seconds": time.process_time() - cpu_trained,
     }
-    return sim.to_network(name), responses, timing
+    return sim.to_network(name), assignment, responses, timing

@@ -105,7 +105,7 @@ def _hardware_rows(module_file: Path, out: Path) -> list[dict[str, Any]]:
     from neurovpr.hardware.plots import plot_utilisation
 
     net = nv.load(module_file)
-    dt = 0.5  # the module's time step (its input delays start at 0.5 ms)
+    dt = 0.1  # the module's time step (its input delays start at 0.1 ms)
     sim = nv.compile(net, backend="reference", dt=dt, seed=0, record_spikes=())
     sim.plasticity(False)
     rates = np.random.default_rng(0).uniform(0.0, 63.75, net.populations["pixels"].size)

@@ -1,6 +1,7 @@
 """Evaluation: metrics, sequence matching and plots, on ``[reference, query]`` distance matrices.
 
 - :mod:`~neurovpr.evaluation.metrics` -- Recall@N, precision-recall, ROC, correct-match sparsity
+- :mod:`~neurovpr.evaluation.concentration` -- how concentrated the best matches are
 - :mod:`~neurovpr.evaluation.sequence` -- identity-kernel sequence matching and SeqSLAM
 - :mod:`~neurovpr.evaluation.plots` -- PNG figures
 
@@ -20,6 +21,7 @@ _EXPORTS = {
     "auc_roc": "neurovpr.evaluation.metrics",
     "roc": "neurovpr.evaluation.metrics",
     "correct_match_sparsity": "neurovpr.evaluation.metrics",
+    "match_concentration": "neurovpr.evaluation.concentration",
     "identity_kernel": "neurovpr.evaluation.sequence",
     "seqslam": "neurovpr.evaluation.sequence",
 }

@@ -13,8 +13,9 @@ __all__ = ["TINY", "tiny_images", "synthetic_dataset"]
 
 # A module small enough for fast tests: 8x8 images, 10 neurons, 100 ms presentations.
 TINY = TrainingSettings(
-    params=ModuleParameters(n_input=64, n_neurons=10),
+    params=ModuleParameters(n_input=64, n_neurons=10, delay_min=0.5),
     coding=RateCoding(presentation_ms=100.0),
+    dt=0.5,
     epochs=2,
     module_size=3,
     weight_sum=40.0,

@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import importlib.metadata
-import io
 import json
 from pathlib import Path
 
@@ -14,6 +13,7 @@ import pytest
 from modular_tiny import TINY, synthetic_dataset, tiny_images
 
 import neurovpr as nv
+from neurovpr.data.ground_truth import GroundTruth
 from neurovpr.evaluation.metrics import distance_from_similarity
 from neurovpr.ir.connectivity import expand
 from neurovpr.models.modular_snn import (
@@ -22,7 +22,6 @@ from neurovpr.models.modular_snn import (
     TrainingSettings,
     assign_neurons,
     build_module,
-    draw_hyperactive_threshold,
     ensemble_similarity,
     fuse_modules,
     hyperactive_neurons,
@@ -35,7 +34,13 @@ from neurovpr.models.modular_snn import (
     train_run,
 )
 from neurovpr.models.modular_snn.parallel import read_npz
-from neurovpr.models.modular_snn.runs import describe_plan
+from neurovpr.models.modular_snn.runs import (
+    calibration_places,
+    default_calibration_places,
+    describe_plan,
+    place_split,
+    split_queries,
+)
 
 
 # ----------------------------------------------------------------------------- graph
@@ -48,27 +53,31 @@ def test_graph_builder_has_the_papers_parameters() -> None:
     # conductances in units of the leak: cm = tau_m
     assert (exc.cm, exc.tau_m, exc.v_rest, exc.e_rev_E, exc.e_rev_I) == (100.0, 100.0, -65.0, 0.0, -100.0)
     assert (exc.tau_syn_E, exc.tau_syn_I, exc.theta_plus, exc.tau_theta) == (1.0, 0.5, 0.05, 1e7)
-    assert (exc.v_thresh, exc.v_reset, exc.tau_refrac, exc.theta_init) == (-52.0, -65.0, 5.0, 0.0)
+    assert (exc.v_thresh, exc.v_reset, exc.tau_refrac, exc.tau_lockout, exc.theta_init) == (-52.0, -65.0, 5.0, 50.0, 0.0)
     assert (inh.cm, inh.tau_m, inh.v_rest, inh.e_rev_E, inh.e_rev_I) == (10.0, 10.0, -60.0, 0.0, -85.0)
     assert (inh.tau_syn_E, inh.tau_syn_I, inh.v_thresh, inh.v_reset, inh.tau_refrac) == (1.0, 0.5, -40.0, -45.0, 2.0)
     projs = net.projections
     stdp = projs["pixels->exc"].synapse
     assert isinstance(stdp, nv.DiehlCookSTDP)
-    assert (stdp.eta_pre, stdp.eta_post, stdp.w_max, stdp.mu, stdp.tau_post2) == (1e-4, 1e-2, 1.0, 1.0, None)
+    # the authors' code's rule: potentiation at a presynaptic arrival, triplet term at a postsynaptic spike
+    rule = (stdp.eta_pre, stdp.eta_post, stdp.w_max, stdp.mu, stdp.x_tar, stdp.tau_post2, stdp.pre_term)
+    assert rule == (1e-4, 1e-2, 1.0, 0.0, 0.0, 40.0, "potentiate")
+    assert (stdp.tau_pre, stdp.tau_post) == (20.0, 20.0)
     assert projs["exc->inh"].synapse.weight == 10.4 and isinstance(projs["exc->inh"].connector, nv.OneToOneConnector)
     lateral = projs["lateral"]
     assert lateral.synapse.weight == 17.0 and lateral.receptor_type == "inhibitory"
-    sizes = {name: expand(net, p, dt=0.5, seed=1).pre.size for name, p in projs.items()}
+    sizes = {name: expand(net, p, dt=0.1, seed=1).pre.size for name, p in projs.items()}
     assert sizes == {"pixels->exc": 784 * 400, "exc->inh": 400, "lateral": 400 * 399}
 
 
-def test_graph_builder_seeded_weights_delays_and_published_rule() -> None:
-    net = build_module(ModuleParameters(stdp="published"), seed=7)
+def test_graph_builder_seeded_weights_delays_and_papers_rule() -> None:
+    net = build_module(ModuleParameters(stdp="paper", lockout_e=0.0), seed=7)
     syn = net.projections["pixels->exc"].synapse
-    assert (syn.mu, syn.tau_post2) == (0.0, 40.0)
+    assert (syn.mu, syn.tau_post2, syn.pre_term) == (1.0, None, "depress")
+    assert net.populations["exc"].cell_type.tau_lockout == 0.0
     assert syn.weight.shape == (784, 400) and 0.003 <= syn.weight.min() and syn.weight.max() < 0.303
-    assert syn.delay.shape == (784, 400) and 0.5 <= syn.delay.min() and syn.delay.max() < 10.0
-    again = build_module(ModuleParameters(stdp="published"), seed=7).projections["pixels->exc"].synapse
+    assert syn.delay.shape == (784, 400) and 0.1 <= syn.delay.min() and syn.delay.max() < 10.0
+    again = build_module(ModuleParameters(stdp="paper"), seed=7).projections["pixels->exc"].synapse
     np.testing.assert_array_equal(syn.weight, again.weight)
     with pytest.raises(nv.ValidationError, match="stdp"):
         ModuleParameters(stdp="other")
@@ -78,21 +87,23 @@ def test_graph_builder_seeded_weights_delays_and_published_rule() -> None:
 def test_training_a_tiny_module_is_deterministic() -> None:
     images = tiny_images(5)
     runs = [train_module(images, np.array([0, 1, 2]), TINY, seed=s) for s in (3, 3, 4)]
-    (net_a, resp_a, _), (net_b, resp_b, _), (net_c, _, _) = runs
+    (net_a, own_a, resp_a, _), (net_b, own_b, resp_b, _), (net_c, _, _, _) = runs
     w = [n.projections["pixels->exc"].synapse.weight for n in (net_a, net_b, net_c)]
     np.testing.assert_array_equal(w[0], w[1])
     np.testing.assert_array_equal(resp_a, resp_b)
+    np.testing.assert_array_equal(own_a, own_b)
+    assert own_a.shape == (3, 10) and own_a.sum() > 0
     np.testing.assert_array_equal(net_a.populations["exc"].cell_type.theta_init, net_b.populations["exc"].cell_type.theta_init)
     assert resp_a.shape == (5, 10) and resp_a.sum() > 0
     assert not np.array_equal(w[0], w[2])
     assert net_a.populations["exc"].cell_type.theta_init.max() > 0  # thresholds adapted
 
 
-def test_published_rule_and_simulated_rest_variants_train() -> None:
-    settings = dataclasses.replace(TINY, params=dataclasses.replace(TINY.params, stdp="published"), simulate_rest=True, epochs=1)
+def test_papers_rule_and_simulated_rest_variants_train() -> None:
+    settings = dataclasses.replace(TINY, params=dataclasses.replace(TINY.params, stdp="paper"), simulate_rest=True, epochs=1)
     net = settings.network("m", seed=1)
     assert net.populations["exc"].v_init == -105.0 and net.populations["inh"].v_init == -100.0
-    learned, responses, timing = train_module(tiny_images(3), np.array([0, 1]), settings, seed=2)
+    learned, _, responses, timing = train_module(tiny_images(3), np.array([0, 1]), settings, seed=2)
     assert responses.shape == (3, 10) and responses.sum() > 0 and timing["train_seconds"] > 0
     start = net.projections["pixels->exc"].synapse.weight
     assert not np.array_equal(learned.projections["pixels->exc"].synapse.weight, start)
@@ -116,27 +127,28 @@ def test_assignment_is_eq4_argmax_with_unassigned_silent_neurons() -> None:
     np.testing.assert_array_equal(a, [11, 12, 10, -1])  # tie in neuron 2 -> first place
 
 
-def test_hyperactive_neurons_and_theta_draws() -> None:
+def test_hyperactive_neurons_counted_in_reference_images() -> None:
     responses = np.array([[50, 0, 3], [30, 1, 0], [0, 1, 0]])
-    np.testing.assert_array_equal(reference_activity(responses), [80, 2, 3])
-    np.testing.assert_array_equal(reference_activity(responses, measure="images"), [2, 2, 1])
+    np.testing.assert_array_equal(reference_activity(responses), [2, 2, 1])  # the code: images fired for
+    np.testing.assert_array_equal(reference_activity(responses, measure="spikes"), [80, 2, 3])
     np.testing.assert_array_equal(hyperactive_neurons(np.array([80, 2, 3]), 40.0), [True, False, False])
     np.testing.assert_array_equal(hyperactive_neurons(np.array([80, 40, 3]), 40.0), [True, True, False])
-    rng = np.random.default_rng(0)
-    small = [draw_hyperactive_threshold(999, rng) for _ in range(200)]
-    large = [draw_hyperactive_threshold(1000, rng) for _ in range(200)]
-    assert 40 <= min(small) and max(small) <= 100 and 600 <= min(large) and max(large) <= 800
+    np.testing.assert_array_equal(hyperactive_neurons(np.array([80, 40, 3]), 0.0), [False, False, False])  # 0: none
 
 
 def test_module_similarity_fusion_ensemble_and_distance() -> None:
     counts = np.array([[4, 1, 0, 9], [0, 2, 3, 9]])  # 2 queries x 4 neurons
     assignments = np.array([0, 2, 2, -1])
-    s = module_similarity(counts, assignments, 4)
+    s = module_similarity(counts, assignments, 4, score="sum")
     np.testing.assert_array_equal(s, [[4, 0], [0, 0], [1, 5], [0, 0]])  # Eq. 7: spikes summed per place
-    np.testing.assert_array_equal(module_similarity(counts, assignments, 4, score="mean")[2], [0.5, 2.5])
+    standard = module_similarity(counts, assignments, 4)  # the code: spikes per assigned neuron
+    np.testing.assert_array_equal(standard, [[4, 0], [0, 0], [0.5, 2.5], [0, 0]])
     ignored = module_similarity(counts, assignments, 4, ignore=np.array([False, True, False, False]))
-    np.testing.assert_array_equal(ignored[2], [0, 3])
-    other = module_similarity(np.array([[1, 1], [0, 7]]), np.array([1, 3]), 4)
+    np.testing.assert_array_equal(ignored[2], [0, 1.5])  # a hyperactive neuron is zeroed but still counted
+    np.testing.assert_array_equal(module_similarity(counts, assignments, 4, ignore=[0, 1, 0, 0], score="sum")[2], [0, 3])
+    with pytest.raises(nv.ValidationError, match="place score"):
+        module_similarity(counts, assignments, 4, score="mean")
+    other = module_similarity(np.array([[1, 1], [0, 7]]), np.array([1, 3]), 4, score="sum")
     fused = fuse_modules([s, other])  # Eq. 9
     np.testing.assert_array_equal(fused, [[4, 0], [1, 0], [1, 5], [1, 7]])
     ens = ensemble_similarity([fused, fused, s])  # Eq. 10
@@ -145,15 +157,41 @@ def test_module_similarity_fusion_ensemble_and_distance() -> None:
 
 
 def test_plan_puts_the_remainder_in_a_last_smaller_module() -> None:
-    plan = make_plan(110, 25, members=2, seed=0)
+    plan = make_plan(110, 25, members=2, seed=0, place_order="route")
     sizes = [len(p.places) for p in plan if p.member == 0]
     assert sizes == [25, 25, 25, 25, 10]
     np.testing.assert_array_equal(np.concatenate([p.places for p in plan if p.member == 1]), np.arange(110))
     assert len({p.seed for p in plan}) == len(plan)
     assert "last, smaller module of 10" in describe_plan(110, 25)
-    shuffled = make_plan(110, 25, members=2, seed=0, place_order="shuffled")
+    shuffled = make_plan(110, 25, members=2, seed=0)  # the default: a random split per member
     assert sorted(np.concatenate([p.places for p in shuffled if p.member == 0]).tolist()) == list(range(110))
     assert not np.array_equal(shuffled[0].places, shuffled[5].places)
+    assert [len(p.places) for p in shuffled if p.member == 0] == [25, 25, 25, 25, 10]
+
+
+def test_plan_sets_calibration_places_aside_as_the_authors_code_does() -> None:
+    # VPRSNN's get_shuffled_indices(150, 50, seed=0) began with these places (its shuffled_indices_L150_S0.npy)
+    cal, rest = place_split(150, 50, 0)
+    np.testing.assert_array_equal(cal[:10], [45, 12, 110, 85, 118, 143, 4, 15, 26, 76])
+    assert np.array_equal(np.sort(np.concatenate([cal, rest])), np.arange(150))
+    np.testing.assert_array_equal(np.sort(cal), calibration_places(150, 50))  # the same set for every seed
+    np.testing.assert_array_equal(np.sort(place_split(150, 50, 9)[0]), np.sort(cal))
+    plan = make_plan(150, 25, members=2, seed=0, n_calibration=50)
+    for m in (0, 1):
+        mods = [p for p in plan if p.member == m]
+        assert [p.calibration for p in mods] == [True, True, False, False, False, False]
+        np.testing.assert_array_equal(np.sort(np.concatenate([p.places for p in mods[:2]])), calibration_places(150, 50))
+    assert not np.array_equal(plan[2].places, plan[8].places)  # each member its own split of the reported places
+    route = make_plan(150, 25, members=1, seed=0, place_order="route", n_calibration=50)
+    np.testing.assert_array_equal(np.concatenate([p.places for p in route[2:]]), np.setdiff1d(np.arange(150), cal))
+    expected = "100 places in 4 module(s) of 25, reported; 50 places in 2 module(s) of 25, for calibration"
+    assert describe_plan(150, 25, 50) == expected
+    cal_q, test_q = split_queries(GroundTruth.aligned(150), calibration_places(150, 50))
+    np.testing.assert_array_equal(cal_q, calibration_places(150, 50))
+    np.testing.assert_array_equal(test_q, np.setdiff1d(np.arange(150), cal_q))
+    assert [default_calibration_places(n, 25) for n in (30, 74, 75, 150, 3300)] == [0, 0, 25, 25, 650]
+    with pytest.raises(nv.ValidationError, match="calibration places"):
+        make_plan(20, 5, members=1, seed=0, n_calibration=20)
 
 
 # ------------------------------------------------------------------ runs and resume
@@ -161,7 +199,7 @@ def _outcome(run_dir: Path, query: np.ndarray) -> tuple[dict, list[np.ndarray], 
     info = json.loads((run_dir / "run.json").read_text())
     assert info["dt_ms"] == info["settings"]["dt"]  # what `neurovpr check --run` reads
     counts = query_responses(run_dir, info, query, progress=False)
-    sims = member_similarities(run_dir, info, counts)
+    sims = member_similarities(run_dir, info, counts, GroundTruth.aligned(len(query))).similarities
     records = {p.stem: read_npz(p) for p in sorted((run_dir / "modules").glob("*.npz"))}
     for rec in records.values():
         for key in [k for k in rec if k.endswith("seconds")]:
@@ -207,12 +245,12 @@ def test_members_trained_apart_equal_the_members_of_a_full_run(tmp_path: Path) -
     info = part["run_info"]
     assert {m["member"] for m in info["modules"]} == {1, 2}
     assert info["hyperactive"] == full["run_info"]["hyperactive"]
-    sims = member_similarities(tmp_path / "part", info, query_responses(tmp_path / "part", info, query, progress=False))
+    gt = GroundTruth.aligned(4)
+    sims = member_similarities(tmp_path / "part", info, query_responses(tmp_path / "part", info, query, progress=False), gt)
     full_info = full["run_info"]
-    full_sims = member_similarities(
-        tmp_path / "full", full_info, query_responses(tmp_path / "full", full_info, query, progress=False), members=[1, 2]
-    )
-    for x, y in zip(sims, full_sims, strict=True):
+    full_counts = query_responses(tmp_path / "full", full_info, query, progress=False)
+    full_sims = member_similarities(tmp_path / "full", full_info, full_counts, gt, members=[1, 2]).similarities
+    for x, y in zip(sims.similarities, full_sims, strict=True):
         np.testing.assert_array_equal(x, y)
     trained = sorted(p.stem for p in (tmp_path / "part" / "modules").glob("*.h5"))
     assert trained == ["m01_k000", "m01_k001", "m02_k000", "m02_k001"]
@@ -273,191 +311,6 @@ def test_train_and_eval_write_run_json_results_and_plots(tmp_path: Path, capsys:
         path = Path(result["files"][key])
         assert path.is_file() and path.stat().st_size > 0
     assert json.loads(Path(result["files"]["json"]).read_text())["metrics"] == result["metrics"]
-
-
-# ------------------------------------------------------- several training traverses
-# Computed with the single-traverse code before training on extra traverses existed:
-# train_module(tiny_images(5), [0, 1, 2], TINY, seed=3) and the module records of
-# train_run(tiny_images(4, seed=1), TINY, members=1, seed=5).
-_EXPECTED_RESPONSES = [
-    [1, 2, 1, 1, 2, 3, 1, 1, 2, 1],
-    [2, 1, 1, 0, 2, 2, 1, 0, 1, 2],
-    [2, 2, 2, 2, 3, 2, 2, 1, 2, 3],
-    [2, 1, 2, 1, 2, 2, 1, 1, 1, 1],
-    [2, 2, 2, 2, 2, 0, 3, 3, 3, 2],
-]
-_EXPECTED_WEIGHT_SUM, _EXPECTED_THETA_SUM = 401.2168121250197, 4.849856762771639
-_EXPECTED_RECORDS = {
-    "m00_k000": (
-        [[1, 3, 0, 3, 0, 1, 2, 0, 2, 2], [1, 2, 1, 2, 1, 3, 2, 2, 1, 2], [3, 3, 2, 0, 1, 3, 2, 3, 1, 2]],
-        [5, 10, 5, 6, 4, 9, 8, 8, 6, 7],
-        [3, 4, 3, 3, 3, 4, 4, 3, 4, 4],
-        "9797767ea834e2d28e65b138237375e81e49058f6ebc147d0be717f0216e0a1b",
-    ),
-    "m00_k001": (
-        [[3, 2, 2, 2, 0, 0, 1, 1, 0, 3]],
-        [8, 8, 5, 6, 6, 5, 5, 6, 3, 6],
-        [4, 4, 3, 4, 3, 3, 3, 4, 3, 4],
-        "ae68ba00b6aeb89753c01bf86af53af7bff2be82535e93417c7fe0249206b3c8",
-    ),
-}
-
-
-def test_single_traverse_training_is_unchanged(tmp_path: Path) -> None:
-    net, responses, _ = train_module(tiny_images(5), np.array([0, 1, 2]), TINY, seed=3)
-    np.testing.assert_array_equal(responses, _EXPECTED_RESPONSES)
-    assert float(net.projections["pixels->exc"].synapse.weight.sum()) == pytest.approx(_EXPECTED_WEIGHT_SUM, rel=1e-12)
-    assert float(net.populations["exc"].cell_type.theta_init.sum()) == pytest.approx(_EXPECTED_THETA_SUM, rel=1e-12)
-    summary = train_run(tmp_path / "run", tiny_images(4, seed=1), TINY, members=1, seed=5, workers=1, progress=False)
-    assert summary["training_traverses"] == 1
-    info = json.loads((tmp_path / "run" / "run.json").read_text())
-    assert info["training_traverses"] == 1 and info["extra_reference_digests"] == []
-    for name, (own, total, fired, fingerprint) in _EXPECTED_RECORDS.items():
-        rec = read_npz(tmp_path / "run" / "modules" / f"{name}.npz")
-        np.testing.assert_array_equal(rec["own_responses"], own)
-        np.testing.assert_array_equal(rec["total_spikes"], total)
-        np.testing.assert_array_equal(rec["images_fired"], fired)
-        assert str(rec["fingerprint"]) == fingerprint  # runs started before still resume
-        assert int(rec["n_traverses"]) == 1 and int(rec["n_presentations"]) == TINY.epochs * len(own) + 4
-
-
-def test_single_traverse_training_repeats_the_former_loop() -> None:
-    """The former single-traverse loop, written out: a permutation of the places per epoch."""
-    from neurovpr.models.modular_snn.network import INPUT_PROJECTION
-    from neurovpr.models.modular_snn.training import Presenter, normalise_input_weights, record_responses
-
-    images, places, seed = tiny_images(5, seed=4).reshape(5, -1), np.array([0, 2, 3]), 6
-    sim = nv.compile(TINY.network("module", seed), backend=TINY.backend, dt=TINY.dt, seed=seed)
-    presenter, order_rng = Presenter(sim, TINY), np.random.default_rng([seed, 1])
-    _, post = sim.connections(INPUT_PROJECTION)
-    for _ in range(TINY.epochs):
-        for place in order_rng.permutation(places):
-            normalise_input_weights(sim, TINY.weight_sum, TINY.params.w_max, post)
-            presenter.present(images[place])
-    sim.plasticity(False)
-    former = record_responses(presenter, images)
-    net, responses, _ = train_module(images, places, TINY, seed=seed)
-    np.testing.assert_array_equal(responses, former)
-    learned = sim.to_network("module").projections["pixels->exc"].synapse.weight
-    np.testing.assert_array_equal(net.projections["pixels->exc"].synapse.weight, learned)
-
-
-def test_extra_traverse_is_presented_every_epoch_and_recorded() -> None:
-    ref, extra, places = tiny_images(5, seed=1), tiny_images(5, seed=7), np.array([1, 3, 4])
-    ticks = {"one": 0, "two": 0}
-
-    def counter(key: str):
-        def tick() -> None:
-            ticks[key] += 1
-
-        return tick
-
-    net_1, resp_1, _ = train_module(ref, places, TINY, seed=2, tick=counter("one"))
-    net_2, resp_2, _ = train_module(ref, places, TINY, seed=2, tick=counter("two"), extra_references=[extra])
-    # places x traverses x epochs training presentations, then every image of every traverse once
-    assert ticks == {"one": 3 * 1 * TINY.epochs + 5, "two": 3 * 2 * TINY.epochs + 2 * 5}
-    assert resp_1.shape == (5, 10) and resp_2.shape == (10, 10) and resp_2[5:].sum() > 0
-    w_1, w_2 = (n.projections["pixels->exc"].synapse.weight for n in (net_1, net_2))
-    assert not np.array_equal(w_1, w_2)
-    with pytest.raises(nv.ValidationError, match="training traverse 1"):
-        train_module(ref, places, TINY, seed=2, extra_references=[tiny_images(4)])
-    # the module record: responses to a place summed over the traverses, activity over all 10 images
-    from neurovpr.models.modular_snn.parallel import train_job
-
-    cfg = json.dumps(TINY.as_dict(), sort_keys=True)
-    shared = np.concatenate([ref, extra]).reshape(10, -1)
-    result = train_job(shared, cfg, "m", places, 2, "fp", 2)
-    with np.load(io.BytesIO(result["record"]), allow_pickle=False) as rec:
-        np.testing.assert_array_equal(rec["own_responses"], resp_2[places] + resp_2[5 + places])
-        np.testing.assert_array_equal(rec["total_spikes"], resp_2.sum(axis=0))
-        np.testing.assert_array_equal(rec["images_fired"], np.count_nonzero(resp_2, axis=0))
-        assert int(rec["n_traverses"]) == 2
-
-
-def test_run_with_an_extra_traverse_records_it_and_resume_checks_it(tmp_path: Path) -> None:
-    ref, extra, other = tiny_images(4, seed=1), tiny_images(4, seed=8), tiny_images(4, seed=9)
-    kw = {"members": 1, "seed": 5, "workers": 1, "progress": False}
-    part = train_run(tmp_path / "run", ref, TINY, max_modules=1, extra_references=[extra], **kw)
-    assert not part["complete"] and part["training_traverses"] == 2
-    for changed in ([other], []):  # another extra traverse, or none: refused, never mixed in
-        with pytest.raises(nv.ValidationError, match="other settings, data"):
-            train_run(tmp_path / "run", ref, TINY, resume=True, extra_references=changed, **kw)
-    done = train_run(tmp_path / "run", ref, TINY, resume=True, extra_references=[extra], **kw)
-    assert done["complete"] and done["skipped_finished"] == 1
-    info = json.loads((tmp_path / "run" / "run.json").read_text())
-    assert info["training_traverses"] == 2 and len(info["extra_reference_digests"]) == 1
-    assert info["extra_reference_digests"][0] != info["reference_digest"]
-    for mod in info["modules"]:
-        rec = read_npz(tmp_path / "run" / "modules" / f"{mod['name']}.npz")
-        n_places = len(mod["places"])
-        assert int(rec["n_traverses"]) == 2 and int(rec["n_presentations"]) == 2 * (TINY.epochs * n_places + 4)
-        assert rec["own_responses"].shape == (n_places, 10) and int(rec["images_fired"].max()) <= 8
-    with pytest.raises(nv.ValidationError, match="extra reference traverse 1 has 3 images"):
-        train_run(tmp_path / "bad", ref, TINY, extra_references=[tiny_images(3)], **kw)
-    assert not (tmp_path / "bad").exists()
-    # hyperactive activity is per training traverse: theta at 3/4 of the largest total ignores no neuron
-    records = [read_npz(tmp_path / "run" / "modules" / f"{m['name']}.npz") for m in info["modules"]]
-    info["hyperactive"]["thetas"] = [0.75 * max(int(r["total_spikes"].max()) for r in records)]
-    counts = query_responses(tmp_path / "run", info, tiny_images(4, seed=2), progress=False)
-    (sim,) = member_similarities(tmp_path / "run", info, counts)
-    expected = fuse_modules(
-        [
-            module_similarity(counts[m["name"]], assign_neurons(r["own_responses"], r["places"]), 4)
-            for m, r in zip(info["modules"], records, strict=True)
-        ]
-    )
-    np.testing.assert_array_equal(sim, expected)
-
-
-def _conditions_dataset(folder: Path, n: int, season: float, name: str) -> Path:
-    from neurovpr.data.generic import write_generic
-    from neurovpr.data.synthetic import AppearanceChange, synthetic_traverse
-
-    change = AppearanceChange(season=season, illumination=0.8, contrast=0.9)
-    return write_generic(synthetic_traverse(n, seed=2, reference=change), folder / name)
-
-
-def _train_cli(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, dict, str]:
-    """``neurovpr train --model modular ARGS``: exit code, JSON summary and error text."""
-    if _entry_point_installed():
-        from neurovpr.cli.main import main
-
-        code = main(["train", "--model", "modular", "--json", *args])
-        out = capsys.readouterr()
-        return code, json.loads(out.out) if code == 0 else {}, out.err
-    p = argparse.ArgumentParser()  # the entry point is not installed yet: drive the plugin the way the CLI does
-    p.add_argument("--data", type=Path)
-    p.add_argument("--out", type=Path)
-    p.add_argument("--seed", type=int, default=0)
-    MODEL.add_train_arguments(p)
-    targs = p.parse_args(args)
-    targs.__dict__.update(backend="reference", scheduler=None, resume=False)
-    try:
-        return 0, MODEL.train(targs), ""
-    except nv.ValidationError as exc:
-        return 2, {}, str(exc)
-
-
-def test_cli_trains_on_an_extra_reference_traverse(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    data = synthetic_dataset(tmp_path, 5)
-    extra = _conditions_dataset(tmp_path, 6, 0.5, "autumn")
-    opts = ["--epochs", "1", "--module-size", "3", "--neurons", "10", "--workers", "1", "--no-progress", "--places", "5"]
-    run_dir = tmp_path / "run"
-    code, summary, _ = _train_cli(["--data", str(data), "--out", str(run_dir), "--extra-reference", str(extra), *opts], capsys)
-    assert code == 0 and summary["complete"] and summary["training_traverses"] == 2
-    info = json.loads((run_dir / "run.json").read_text())
-    assert info["extra_references"] == [str(extra.resolve())] and info["training_traverses"] == 2
-    rec = read_npz(run_dir / "modules" / "m00_k000.npz")
-    assert int(rec["n_presentations"]) == 2 * (1 * 3 + 5)
-    code, _, _ = _train_cli(["--data", str(data), "--out", str(tmp_path / "alone"), *opts], capsys)
-    w = [nv.load(d / "modules" / "m00_k000.h5").projections["pixels->exc"].synapse.weight for d in (run_dir, tmp_path / "alone")]
-    assert code == 0 and not np.array_equal(w[0], w[1])  # the extra traverse's images were learned from
-    # without --places the counts (5 and 6) differ: one error naming both, before anything is trained
-    bad = tmp_path / "bad"
-    code, _, error = _train_cli(["--data", str(data), "--out", str(bad), "--extra-reference", str(extra), *opts[:-2]], capsys)
-    assert code == 2 and error.strip().count("\n") == 0
-    assert all(s in error for s in (str(extra), str(data), "has 6 reference places", "has 5"))
-    assert not bad.exists()
 
 
 @pytest.mark.slow
