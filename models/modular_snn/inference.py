@@ -191,7 +191,9 @@ def calibrate_threshold(
     ground_truth
         ``[places, calibration queries]`` ground truth.
     score, thresholds
-        The place score and the candidates; ties go to the smaller threshold.
+        The place score and the candidates; ties go to the smaller threshold. A
+        threshold that zeroes every calibration response is skipped, as the code's
+        evaluation stops there ("All neurons are categorised as hyperactive").
     """
     places = np.asarray(places, dtype=np.int64)
     recall: dict[float, float] = {}
@@ -200,8 +202,12 @@ def calibrate_threshold(
             module_similarity(counts, assigned, n_reference, ignore=hyperactive_neurons(activity, theta), score=score)
             for counts, assigned, activity in modules
         ]
-        distances = distance_from_similarity(fuse_modules(parts)[places])
-        recall[theta] = recall_at_n(distances, ground_truth, [1])[1]
+        fused = fuse_modules(parts)[places]
+        if theta > 0 and not fused.any():
+            continue  # every response zeroed: the code's evaluation gives no result at this threshold
+        recall[theta] = recall_at_n(distance_from_similarity(fused), ground_truth, [1])[1]
+    if not recall:
+        return 0.0, recall
     best = max(recall, key=lambda t: (recall[t], -t))
     return best, recall
 

@@ -22,6 +22,7 @@ from neurovpr.models.modular_snn import (
     TrainingSettings,
     assign_neurons,
     build_module,
+    calibrate_threshold,
     ensemble_similarity,
     fuse_modules,
     hyperactive_neurons,
@@ -134,6 +135,15 @@ def test_hyperactive_neurons_counted_in_reference_images() -> None:
     np.testing.assert_array_equal(hyperactive_neurons(np.array([80, 2, 3]), 40.0), [True, False, False])
     np.testing.assert_array_equal(hyperactive_neurons(np.array([80, 40, 3]), 40.0), [True, True, False])
     np.testing.assert_array_equal(hyperactive_neurons(np.array([80, 40, 3]), 0.0), [False, False, False])  # 0: none
+
+
+def test_threshold_calibration_skips_a_threshold_that_silences_every_neuron() -> None:
+    # neurons 0 and 2 fire for 10 reference images and answer the wrong query; 1 and 3 for 1 image
+    counts = np.array([[1, 1, 5, 0], [5, 0, 0, 1]])
+    module = (counts, np.array([0, 0, 1, 1]), np.array([10, 1, 10, 1]))
+    truth = GroundTruth(matrix=np.eye(2, dtype=bool))
+    best, recall = calibrate_threshold([module], 2, np.array([0, 1]), truth, thresholds=(0, 1, 5))
+    assert best == 5 and recall == {0: 0.0, 5: 1.0}  # at 1 every neuron is hyperactive: no result, as in the code
 
 
 def test_module_similarity_fusion_ensemble_and_distance() -> None:
