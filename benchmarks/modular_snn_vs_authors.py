@@ -1,0 +1,270 @@
+"""The Modular SNN next to the authors' own code (QVPR/VPRSNN) on the same nordland64 places.
+
+One modular SNN (one member, ``--seed``) on the first ``--places + --calibration-places``
+places of the paper's filtered Nordland list in nordland64 (summer reference, winter
+query, zero tolerance), split as VPRSNN splits them: ``--calibration-places`` random
+places (the same for every seed) calibrate the hyperactive threshold, the other
+``--places`` are the reported ones, cut at random into modules of 25. Both sides train
+``--epochs`` epochs and assign neurons from the last ``--assignment-presentations``
+training presentations.
+
+- neurovpr: this repository's model with its defaults (the authors' code's behaviour,
+  see :mod:`neurovpr.models.modular_snn`), reference backend, in local worker processes.
+- the authors' code: with ``--authors PATH`` (a checkout of QVPR/VPRSNN) and
+  ``--authors-python PYTHON`` (an environment with what it imports: Brian2, OpenCV,
+  seaborn, scikit-learn, matplotlib), it is run unmodified except for its data loading
+  (:mod:`vprsnn_oracle` says exactly what is adapted); ``--write-fixture`` stores the
+  figures it produced, with this command, in ``benchmarks/fixtures/modular_snn_vprsnn_oracle.json``.
+  Without ``--authors`` the figures come from that fixture.
+
+Printed side by side: Recall@1 on the reported places (agreement: the difference within
+two standard errors of the difference of two binomial proportions over the query count),
+spikes per neuron per image (query and reference images; the ratio neurovpr / authors is
+printed, no tolerance is claimed beyond it), neurons assigned per place, the largest
+share of a module's neurons on one place, the hyperactive threshold and count. The
+defaults are the settings of the stored fixture (75 reported and 25 calibration places,
+5 epochs, assignment from the last 25 presentations, seed 0), so the plain command
+compares with it.
+
+Usage (from the repository root)::
+
+    python benchmarks/modular_snn_vs_authors.py                        # the fixture vs neurovpr
+    python benchmarks/modular_snn_vs_authors.py --authors ../VPRSNN --authors-python ../vprsnn-env/bin/python \\
+        --workdir /tmp/vprsnn-run --write-fixture                      # rerun the authors' code too
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import shlex
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from modular_snn_nordland import select_places
+from vprsnn_oracle import OracleSettings, collect_facts, run_authors, write_lists
+
+from neurovpr.data.traverse import Traverse
+from neurovpr.evaluation.metrics import distance_from_similarity, recall_at_n
+from neurovpr.fileio import atomic_write_text
+from neurovpr.models.modular_snn import (
+    ModuleParameters,
+    TrainingSettings,
+    assign_neurons,
+    hyperactive_neurons,
+    member_similarities,
+    query_responses,
+    train_run,
+)
+from neurovpr.models.modular_snn.parallel import default_workers, read_npz
+from neurovpr.models.modular_snn.plugin import load_traverse
+from neurovpr.models.modular_snn.runs import calibration_places
+from neurovpr.paths import shared_datasets
+
+FIXTURE = Path(__file__).resolve().parent / "fixtures" / "modular_snn_vprsnn_oracle.json"
+MODULE = 25
+
+
+def _args(argv: list[str] | None = None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    p.add_argument("--places", type=int, default=75, help="reported (test) places (default 75)")
+    p.add_argument("--calibration-places", type=int, default=25, help="calibration places (default 25)")
+    p.add_argument("--epochs", type=int, default=5, help="training epochs of every module, both sides (default 5)")
+    p.add_argument("--assignment-presentations", type=int, default=25, help="the code's --update_interval (default 25)")
+    p.add_argument("--seed", type=int, default=0, help="member seed (default 0)")
+    p.add_argument("--neurons", type=int, default=400, help="excitatory neurons per module (default 400)")
+    p.add_argument("--authors", type=Path, default=None, help="a checkout of QVPR/VPRSNN: rerun it")
+    p.add_argument("--authors-python", default=None, help="the Python that runs it (default: this one)")
+    p.add_argument("--authors-revision", default=None, help="the checkout's commit, stored with the figures")
+    p.add_argument("--workdir", type=Path, default=Path("reports/vprsnn_authors"), help="where the authors' code writes")
+    p.add_argument("--write-fixture", action="store_true", help="store the authors' figures in the fixture")
+    p.add_argument("--fixture", type=Path, default=FIXTURE, help="the fixture to read or write")
+    p.add_argument("--out", type=Path, default=Path("reports/modular_snn_vs_authors"), help="neurovpr's run and results")
+    p.add_argument("--workers", type=int, default=None, help="neurovpr's worker processes (default: CPU cores)")
+    p.add_argument("--only-authors", action="store_true", help="run the authors' code only (no neurovpr side)")
+    return p.parse_args(argv)
+
+
+def _settings(args: argparse.Namespace) -> OracleSettings:
+    return OracleSettings(
+        n_test=args.places, n_cal=args.calibration_places, module_size=MODULE, epochs=args.epochs, seed=args.seed,
+        n_e=args.neurons, update_interval=args.assignment_presentations,
+    )  # fmt: skip
+
+
+def filtered_traverse(n: int) -> Traverse:
+    """The first ``n`` places of the VPRSNN Nordland list in nordland64 (summer reference, winter query)."""
+    shared = shared_datasets()
+    if shared is None:
+        raise SystemExit("no real data: set NEUROVPR_SHARED_DATA (nordland64 and vprsnn_lists are needed)")
+    return select_places(load_traverse(shared / "nordland64"), "vprsnn", n)
+
+
+def neurovpr_facts(args: argparse.Namespace, s: OracleSettings, traverse: Traverse) -> dict[str, Any]:
+    """Train and evaluate one modular SNN here with the same settings; the same figures as :func:`collect_facts`."""
+    settings = TrainingSettings(
+        params=ModuleParameters(n_neurons=s.n_e), epochs=s.epochs, module_size=s.module_size,
+        assignment_presentations=s.update_interval,
+    )  # fmt: skip
+    reference, query = traverse.reference.preprocessed(), traverse.query.preprocessed()
+    run_dir = args.out / "run"
+    workers = args.workers or default_workers()
+    start, cpu = time.perf_counter(), time.process_time()
+    summary = train_run(run_dir, reference, settings, members=1, seed=s.seed, n_calibration=s.n_cal, workers=workers, resume=True)
+    info = summary["run_info"]
+    counts = query_responses(run_dir, info, query, workers=workers)
+    ms = member_similarities(run_dir, info, counts, traverse.ground_truth)
+    gt = traverse.ground_truth.subset(ms.places, ms.queries)
+    recall = recall_at_n(distance_from_similarity(ms.similarities[0]), gt, [1])[1]
+    theta = ms.thresholds[0]
+    tested = [mod for mod in info["modules"] if not mod["calibration"]]
+    records = [read_npz(run_dir / "modules" / f"{mod['name']}.npz") for mod in tested]
+    q = np.concatenate([counts[mod["name"]][ms.queries] for mod in tested], axis=1)
+    fired = np.concatenate([r["images_fired"] for r in records])
+    spikes = np.concatenate([r["total_spikes"] for r in records])
+    hyper = hyperactive_neurons(fired, theta)
+    per_place, share, unassigned = [], [], 0
+    for r in records:
+        a = assign_neurons(r["own_responses"], r["places"])
+        unassigned += int(np.count_nonzero(a < 0))
+        c = np.bincount(a[a >= 0], minlength=len(reference))
+        per_place.append(c[c > 0])
+        share.append(float(c.max() / a.size))
+    per_place_all = np.concatenate(per_place)
+    return {
+        "R@1": float(recall),
+        "queries": int(ms.queries.size),
+        "hyperactive_threshold_images": float(theta),
+        "calibration_R@1_by_threshold": {str(k): v for k, v in ms.calibration[0].items()},
+        "hyperactive_neurons": int(hyper.sum()),
+        "hyperactive_fraction": float(hyper.mean()),
+        "spikes_per_neuron_per_query_image": float(q.mean()),
+        "spikes_per_neuron_per_reference_image": float(spikes.mean() / len(reference)),
+        "silent_neuron_fraction_per_query_image": float(np.mean(q == 0)),
+        "reference_images_fired_for_per_neuron_mean": float(fired.mean()),
+        "unassigned_neurons": unassigned,
+        "places_with_neurons": int(sum(c.size for c in per_place)),
+        "neurons_per_assigned_place_mean": float(per_place_all.mean()),
+        "neurons_per_assigned_place_max": int(per_place_all.max()),
+        "largest_share_of_a_module_on_one_place": float(max(share)),
+        "train_record_seconds_per_module_cpu": float(sum(info[f"{k}_cpu_seconds_per_module"] for k in ("train", "record"))),
+        "wall_seconds": round(time.perf_counter() - start, 1),
+        "main_process_cpu_seconds": round(time.process_time() - cpu, 1),
+    }
+
+
+def _authors(args: argparse.Namespace, s: OracleSettings, argv: list[str]) -> dict[str, Any]:
+    """Run the authors' code (see :mod:`vprsnn_oracle`) and return its figures; store them with ``--write-fixture``."""
+    traverse = filtered_traverse(s.n_places)
+    reference, query = list(traverse.reference.paths), list(traverse.query.paths)
+    workdir = args.workdir.resolve()
+    lists = write_lists(workdir, reference, query)
+    python = args.authors_python or sys.executable
+    python = os.path.abspath(python) if os.sep in python else python  # the steps run in the work folder
+    start = time.perf_counter()
+    run = run_authors(args.authors, python, workdir, s, lists)
+    facts = collect_facts(workdir, s, run)
+    shuffled = np.load(workdir / f"shuffled_indices_L{s.n_places}_S{s.seed}.npy", allow_pickle=False)
+    record = {
+        "what": "figures produced by the Modular SNN authors' code (QVPR/VPRSNN), run unmodified except for its "
+        "data loading (benchmarks/vprsnn_oracle.py), on the nordland64 places named below",
+        "command": "python benchmarks/modular_snn_vs_authors.py " + " ".join(shlex.quote(a) for a in _portable(argv)),
+        "authors_revision": args.authors_revision,
+        "settings": s.as_dict(),
+        "data": f"nordland64, the first {s.n_places} places of the VPRSNN Nordland list (summer reference, winter query)",
+        "calibration_places": sorted(int(i) for i in shuffled[: s.n_cal]),
+        "machine": f"{platform.machine()}, {platform.python_version()}",
+        "wall_seconds": round(time.perf_counter() - start, 1),
+        "facts": facts,
+    }
+    if args.write_fixture:
+        args.fixture.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(args.fixture, json.dumps(record, indent=1) + "\n")
+    return record
+
+
+#: Options whose values are paths of the machine that ran the command: stored as placeholders.
+_PATH_OPTIONS = {"--authors": "VPRSNN", "--authors-python": "VPRSNN_ENV/bin/python", "--workdir": "WORKDIR"}
+
+
+def _portable(argv: list[str]) -> list[str]:
+    """``argv`` with the values of :data:`_PATH_OPTIONS` replaced by placeholders (no machine's paths in the fixture)."""
+    out = list(argv)
+    for i, arg in enumerate(out[:-1]):
+        if arg in _PATH_OPTIONS:
+            out[i + 1] = _PATH_OPTIONS[arg]
+    return out
+
+
+def _agree(p1: float, p2: float, n: int) -> tuple[float, bool]:
+    """Standard error of the difference of two independent proportions over ``n`` queries; within 2 of them?"""
+    p = (p1 + p2) / 2
+    se = math.sqrt(2 * p * (1 - p) / n) if 0 < p < 1 else 1.0 / n
+    return se, abs(p1 - p2) <= 2 * se
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    args = _args(argv)
+    s = _settings(args)
+    if args.authors is not None:
+        oracle = _authors(args, s, argv)
+    elif args.fixture.is_file():
+        oracle = json.loads(args.fixture.read_text())
+    else:
+        print(f"{args.fixture} is missing: pass --authors PATH to run the authors' code", file=sys.stderr)
+        return 2
+    if args.only_authors:
+        print(json.dumps(oracle["facts"], indent=1))
+        return 0
+    if oracle["settings"] != s.as_dict():
+        print(f"the fixture was made with {oracle['settings']}, not {s.as_dict()}; rerun the authors' code", file=sys.stderr)
+        return 2
+    ours = neurovpr_facts(args, s, filtered_traverse(s.n_places))
+    if oracle.get("calibration_places") != calibration_places(s.n_places, s.n_cal).tolist():
+        print("the calibration places differ from the authors' code's (same seed-42 draw expected)", file=sys.stderr)
+        return 1
+    _print(oracle, ours, s)
+    args.out.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(args.out / "comparison.json", json.dumps({"authors": oracle, "neurovpr": ours}, indent=1))
+    return 0
+
+
+_ROWS = (
+    ("R@1", "Recall@1 (reported places)"),
+    ("spikes_per_neuron_per_query_image", "spikes per neuron per query image"),
+    ("spikes_per_neuron_per_reference_image", "spikes per neuron per reference image"),
+    ("silent_neuron_fraction_per_query_image", "silent neurons per query image (fraction)"),
+    ("reference_images_fired_for_per_neuron_mean", "reference images a neuron fires for (mean)"),
+    ("neurons_per_assigned_place_mean", "neurons per assigned place (mean)"),
+    ("neurons_per_assigned_place_max", "neurons per assigned place (max)"),
+    ("largest_share_of_a_module_on_one_place", "largest share of a module's neurons on one place"),
+    ("places_with_neurons", "places with at least one neuron"),
+    ("unassigned_neurons", "unassigned neurons"),
+    ("hyperactive_threshold_images", "hyperactive threshold (reference images)"),
+    ("hyperactive_neurons", "hyperactive neurons"),
+)
+
+
+def _print(oracle: dict[str, Any], ours: dict[str, Any], s: OracleSettings) -> None:
+    a, b = oracle["facts"], ours
+    print(f"\nModular SNN vs the authors' code: {oracle['data']}")
+    print(f"{s.n_test} reported places, {s.n_cal} calibration places, {s.epochs} epochs, seed {s.seed}, one member")
+    print(f"{'':<52}{'authors':>12}{'neurovpr':>12}")
+    for key, label in _ROWS:
+        print(f"{label:<52}{a[key]:>12.4g}{b[key]:>12.4g}")
+    for key in ("spikes_per_neuron_per_query_image", "spikes_per_neuron_per_reference_image"):
+        print(f"{key}: neurovpr / authors = {b[key] / a[key]:.2f}")
+    se, ok = _agree(a["R@1"], b["R@1"], s.n_test)
+    print(f"\nR@1 difference {b['R@1'] - a['R@1']:+.3f}, standard error of the difference {se:.3f} over {s.n_test} queries: "
+          f"{'within' if ok else 'NOT within'} 2 standard errors")  # fmt: skip
+
+
+if __name__ == "__main__":
+    sys.exit(main())
