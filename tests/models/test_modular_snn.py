@@ -317,6 +317,12 @@ def test_train_and_eval_write_run_json_results_and_plots(tmp_path: Path, capsys:
     assert info["model"] == "modular" and info["members"] == 2 and len(info["modules"]) == 6
     assert result["model"] == "modular" and result["seq_len"] == 2 and result["ensemble_size"] == 2
     assert {"R@1", "R@5", "P@100R", "AUC_PR"} <= set(result["metrics"]) and "SAD" in result["baselines"]
+    # the concentration of best matches next to the metrics (sequence length 2: one query fewer than places)
+    conc = result["concentration"]
+    n_queries = result["reported"]["queries"] - 1
+    assert conc["queries"] == n_queries and 1 <= conc["distinct_best_matches"] <= n_queries
+    assert conc["top_places"] >= 1 and conc["top_places"] / n_queries <= conc["top_share"] <= 1.0
+    assert set(result["baseline_concentration"]) == {"SAD", "Perfect Memory"}
     for key in ("json", "distance_matrix", "pr_curve", "recall_at_n"):
         path = Path(result["files"][key])
         assert path.is_file() and path.stat().st_size > 0
