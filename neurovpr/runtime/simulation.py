@@ -285,7 +285,8 @@ class Simulation(ABC):
                 )
             return rates
         if isinstance(cell, SpikeSourceArray):
-            src = value if isinstance(value, SpikeSourceArray) else SpikeSourceArray.from_lists(list(value))
+            src = value if isinstance(value, SpikeSourceArray) else SpikeSourceArray(spike_times=value)
+            src = src.for_size(pop.size)
             if src.n_neurons != pop.size:
                 raise ValidationError(f"inputs[{name!r}]: spike times for {src.n_neurons} neurons, population has {pop.size}.")
             return src
