@@ -29,12 +29,13 @@ from typing import Any
 import numpy as np
 import scipy.sparse
 
+from neurovpr.backendkit.timing import delay_steps
 from neurovpr.ir.connectivity import Connections
 from neurovpr.ir.connectors import ConvolutionConnector
 from neurovpr.ir.network import Network, Projection
 
 from .compat import import_lava
-from .translation import LavaLIF, delay_steps, fixed_weights, lava_lif, weight_scale
+from .translation import LavaLIF, fixed_weights, lava_lif, weight_scale
 
 __all__ = ["LavaNetwork", "build_network", "receptors_by_population"]
 
@@ -109,7 +110,7 @@ def _lif_process(params: LavaLIF, size: int, fixed: bool) -> Any:
         kwargs = {
             "shape": (size,),
             "u": np.zeros(size),
-            "v": params.v_init.copy(),
+            "v": params.compartment.v_init.copy(),
             "du": params.du,
             "dv": params.dv,
             "vth": params.vth,
