@@ -34,6 +34,9 @@ def test_negative_time_constant() -> None:
         nv.IF_curr_exp(tau_m=-1.0)
     with _raises("IF_cond_exp_adaptive.tau_theta must be > 0.0 ms, got 0.0."):
         nv.IF_cond_exp_adaptive(tau_theta=0.0)
+    with _raises("IF_cond_exp_adaptive.tau_lockout must be >= 0.0 ms, got -1.0 (element 1)."):
+        nv.IF_cond_exp_adaptive(tau_lockout=np.array([50.0, -1.0]))
+    assert nv.IF_cond_exp_adaptive().tau_lockout == 0.0  # default: the clamp alone, as before the lockout existed
     with _raises("IF_curr_exp.tau_syn_E must be > 0.0 ms, got -2.0 (element 1)."):
         nv.IF_curr_exp(tau_syn_E=np.array([1.0, -2.0]))
     with _raises("SpikeSourcePoisson.rate must be >= 0.0 Hz, got -5.0."):

@@ -31,7 +31,10 @@ Numerical notes (see also the package docstring):
 - Refractoriness uses Brian2's own mechanism (``lastspike``, ``not_refractory`` and the
   threshold's ``and not_refractory``): ``refractory`` is ``(R + 1) dt`` with
   ``R = round(tau_refrac / dt)``, because Brian2 counts the step of the spike itself,
-  while the semantics hold ``v`` for the ``R`` steps that follow it. ``v`` is held by a
+  while the semantics hold ``v`` for the ``R`` steps that follow it. The spike lockout of
+  ``IF_cond_exp_adaptive`` (``tau_lockout``) is a second condition of its threshold,
+  ``t - lastspike > t_lock`` (VPRSNN expresses the same with a timer variable), which
+  leaves the membrane free. ``v`` is held by a
   ``run_regularly`` operation after the integration rather than by the ``(unless
   refractory)`` flag, which would put ``not_refractory`` into the system matrix of the
   exact solver and hide the degenerate ``tau_syn == tau_m`` case from it.
@@ -95,6 +98,7 @@ _COND_V = (
 )
 _THETA_EQ = (
     "dtheta/dt = -learn*theta/tau_theta : volt\ntau_theta : second (constant)\ntheta_plus : volt (constant)\nlearn : 1 (shared)\n"
+    "t_lock : second (constant)\n"
 )
 _COMMON = (
     "v_rest : volt (constant)\n"
@@ -110,7 +114,8 @@ _COMMON = (
 _TAU_CA_PARAM = "tau_ca2 : second (constant)\n"
 
 _THRESHOLD = "v >= v_thresh"
-_THRESHOLD_THETA = "v >= v_thresh + theta"
+#: The spike lockout (``tau_lockout``): no spike until ``t_lock`` after the last one, whatever ``v`` does.
+_THRESHOLD_THETA = "v >= v_thresh + theta and t - lastspike > t_lock"
 _RESET = "v = v_reset"
 _RESET_THETA = "v = v_reset\ntheta += learn*theta_plus"
 _RESET_CA = "v = v_reset\nI_ca2 += i_alpha"
@@ -227,6 +232,10 @@ def neuron_model(cell: NeuronType, n: int, dt: float, v_init: Any) -> NeuronMode
             equations += _THETA_EQ
             params["tau_theta"] = per_neuron(cell.tau_theta, n) * _MS
             params["theta_plus"] = per_neuron(cell.theta_plus, n) * _MV
+            # the first step allowed to spike again is L = max(R, round(tau_lockout / dt)) steps after a spike, where
+            # t - lastspike = L dt; half a step below that keeps the comparison clear of round-off
+            lock_steps = np.maximum(refrac_steps, np.rint(per_neuron(cell.tau_lockout, n) / dt))
+            params["t_lock"] = (lock_steps - 0.5) * dt * _MS
             initial["theta"] = per_neuron(cell.theta_init, n) * _MV
             threshold, reset, learned = _THRESHOLD_THETA, _RESET_THETA, ("theta",)
     else:

@@ -8,8 +8,10 @@ no Python in the loop. The order within step ``j`` follows docs/semantics.md:
    the static ring slot, added to synaptic currents/conductances;
 3. each neuron: exact propagation of the membrane over the step with the
    synaptic state at its start, decay of the synaptic state, threshold, reset,
-   refractoriness, adaptation, and on a spike the potentiation of its incoming
-   plastic synapses and the scheduling of its outgoing spikes (stamped ``j + 1``);
+   refractoriness (one step counter per neuron: the membrane is held while more
+   than the lockout's extra steps remain, and a spike needs the counter at 0),
+   adaptation, and on a spike the potentiation of its incoming plastic synapses
+   and the scheduling of its outgoing spikes (stamped ``j + 1``);
 4. recording of state variables at the end of the step.
 
 Neurons are updated in *groups* of identical parameters (scalars, so the loops
@@ -68,6 +70,7 @@ from .translation import (
     C_GL,
     C_I_ALPHA,
     C_I_OFFSET,
+    C_LOCK,
     C_P11CA,
     C_P11E,
     C_P11I,
@@ -208,19 +211,23 @@ def update_cond(lo, hi, flags, params, dt, plastic_on, v, ie, ii, theta, refr, f
     fe, fi, gl, cm = params[lo, C_FE], params[lo, C_FI], params[lo, C_GL], params[lo, C_CM]
     e_rev_e, e_rev_i, v_th = params[lo, C_E_REV_E], params[lo, C_E_REV_I], params[lo, C_V_THRESH]
     p11e, p11i, theta_decay = params[lo, C_P11E], params[lo, C_P11I], params[lo, C_THETA_DECAY]
+    lock = np.int64(params[lo, C_LOCK])  # the last `lock` steps of the count: free membrane, no spike yet
     adapt = plastic_on and (flags & F_ADAPTIVE) != 0
     n_spikes = 0
     for i in range(lo, hi):
-        if refr[i] > 0:
+        if refr[i] > lock:
             refr[i] -= 1
-        elif ie[i] == 0.0 and ii[i] == 0.0:  # no conductance: the leak alone (P22 = exp(-dt gL / cm))
-            v[i] = rest + (v[i] - rest) * p22 + i_off * p20
         else:
-            ge = ie[i] * fe
-            gi = ii[i] * fi
-            gt = gl + ge + gi
-            v_inf = (gl * rest + ge * e_rev_e + gi * e_rev_i + i_off) / gt
-            v[i] = v_inf + (v[i] - v_inf) * np.exp(-dt * gt / cm)
+            if refr[i] > 0:
+                refr[i] -= 1
+            if ie[i] == 0.0 and ii[i] == 0.0:  # no conductance: the leak alone (P22 = exp(-dt gL / cm))
+                v[i] = rest + (v[i] - rest) * p22 + i_off * p20
+            else:
+                ge = ie[i] * fe
+                gi = ii[i] * fi
+                gt = gl + ge + gi
+                v_inf = (gl * rest + ge * e_rev_e + gi * e_rev_i + i_off) / gt
+                v[i] = v_inf + (v[i] - v_inf) * np.exp(-dt * gt / cm)
         ie[i] = flush(ie[i] * p11e)
         ii[i] = flush(ii[i] * p11i)
         if adapt:
@@ -629,7 +636,7 @@ def run_steps(
                             flag[i] = False
                             n_spikes -= 1
                             v[i] = params[lo, C_V_RESET]
-                            refr[i] = np.int64(params[lo, C_REFRAC])
+                            refr[i] = np.int64(params[lo, C_REFRAC] + params[lo, C_LOCK])
                             ica[i] += params[lo, C_I_ALPHA]
                             if plastic_on:
                                 theta[i] += params[lo, C_THETA_PLUS]

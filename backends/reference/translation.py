@@ -62,11 +62,12 @@ KIND_CURR, KIND_COND, KIND_POISSON, KIND_ARRAY = 0, 1, 2, 3
     C_P11CA,  # exp(-dt/tau_ca2)
     C_P21CA,  # I_ca2 -> v
     C_I_ALPHA,
-    C_REFRAC,  # refractory steps
+    C_REFRAC,  # refractory steps (membrane held at v_reset)
+    C_LOCK,  # steps after the refractory ones in which the membrane integrates but may not fire (tau_lockout)
     C_V_INIT,
     C_I_CA_INIT,
     N_COLS,
-) = range(25)
+) = range(26)
 
 # Columns that hold initial values, not parameters of the dynamics.
 INIT_COLS = (C_V_INIT, C_I_CA_INIT)
@@ -139,6 +140,7 @@ def neuron_table(cell: object, n: int, dt: float, v_init: object) -> tuple[int, 
     if isinstance(cell, IF_cond_exp_adaptive):
         table[:, C_THETA_PLUS] = per_neuron(cell.theta_plus, n)
         table[:, C_THETA_DECAY] = np.exp(-dt / per_neuron(cell.tau_theta, n))
+        table[:, C_LOCK] = np.maximum(np.rint(per_neuron(cell.tau_lockout, n) / dt) - table[:, C_REFRAC], 0.0)
     if isinstance(cell, IF_curr_exp_ca2_adaptive):
         tau_ca = per_neuron(cell.tau_ca2, n)
         table[:, C_P11CA] = np.exp(-dt / tau_ca)

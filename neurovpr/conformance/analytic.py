@@ -76,12 +76,16 @@ def lif_grid_spike_times(
     tau_refrac: float,
     i_offset: float,
     v_init: float | None = None,
+    tau_lockout: float = 0.0,
 ) -> np.ndarray:
     """Spike times of a LIF neuron under constant current, on the simulation grid.
 
     The first spike comes ``k0`` steps after the start (from ``v_init``), every later
-    one ``round(tau_refrac / dt) + k`` steps after the previous (``k`` steps from
-    ``v_reset``, see :func:`lif_steps_to_threshold`).
+    one ``R + k`` steps after the previous (``R = round(tau_refrac / dt)`` steps held at
+    ``v_reset``, then ``k`` steps to threshold, see :func:`lif_steps_to_threshold`). A
+    spike lockout (``tau_lockout``) lets no spike come before ``L = max(R,
+    round(tau_lockout / dt))`` steps while the membrane integrates freely after the
+    ``R`` held steps, so every interval is ``max(L, R + k)`` steps.
     """
     v_inf = v_rest + tau_m / cm * i_offset
     v0 = v_rest if v_init is None else v_init
@@ -90,7 +94,8 @@ def lif_grid_spike_times(
     n_steps = round(t_stop / dt)
     if k0 is None or k is None or k0 > n_steps:
         return np.zeros(0)
-    isi = round(tau_refrac / dt) + k
+    n_ref = round(tau_refrac / dt)
+    isi = max(n_ref, round(tau_lockout / dt), n_ref + k)
     steps = np.arange(k0, n_steps + 1, isi)
     return steps * dt
 

@@ -30,6 +30,8 @@ CASES = MappingProxyType(
         "delay_rounding": "a delay that is not a multiple of dt is rounded to the nearest whole step",
         "spike_array_rounding": "SpikeSourceArray times are rounded to the nearest step",
         "ca2_adaptation": "IF_curr_exp_ca2_adaptive: I_ca2 jumps by i_alpha per spike, decays with tau_ca2, ISIs grow",
+        "spike_lockout": "IF_cond_exp_adaptive with tau_lockout: intervals of max(lockout, refractory + time to threshold), "
+        "the membrane free (above threshold) during the lockout",
         "theta_adaptation": "IF_cond_exp_adaptive: theta grows by theta_plus per spike, decays, survives reset()",
         "determinism": "the same seed gives identical spike trains; another seed gives other Poisson trains",
         "reset": "reset() returns time, state and spikes in flight to the start, keeps weights",

@@ -129,6 +129,12 @@ class IF_cond_exp_adaptive(NeuronType):  # noqa: N801 - PyNN-style name
     The threshold is ``v_thresh + theta``; ``theta`` grows by ``theta_plus`` at every
     spike and decays to 0 with ``tau_theta``. ``theta_init`` is its starting value
     (a learned quantity: saving a trained simulation stores it here).
+
+    ``tau_lockout`` is a spike lockout separate from the membrane clamp: after a spike
+    the membrane is held at ``v_reset`` for ``tau_refrac`` and integrates normally after
+    that, but the neuron cannot fire again until ``max(tau_refrac, tau_lockout)`` has
+    passed since its spike (the Modular SNN authors' code clamps for 5 ms and locks out
+    for 50 ms). The default 0 leaves ``tau_refrac`` alone in charge, as in ``IF_cond_exp``.
     """
 
     conductance_based = True
@@ -137,6 +143,9 @@ class IF_cond_exp_adaptive(NeuronType):  # noqa: N801 - PyNN-style name
     cm: float = param(1.0, unit="nF", low=0.0, low_open=True, array=True)
     tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True)
     tau_refrac: float = param(0.1, unit="ms", low=0.0, array=True)
+    tau_lockout: float = param(
+        0.0, unit="ms", low=0.0, array=True, doc="time after a spike before the next may come (membrane free after tau_refrac)"
+    )
     tau_syn_E: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
     tau_syn_I: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
     e_rev_E: float = param(0.0, unit="mV", array=True)

@@ -26,7 +26,13 @@ def full_network() -> nv.Network:
         v_init=np.array([-65.0, -64.0, -63.0, -62.0]),
     )
     net.add_population("cond", 5, nv.IF_cond_exp(e_rev_I=-80.0), v_init=-60.0)
-    net.add_population("adaptive", 5, nv.IF_cond_exp_adaptive(theta_init=rng.uniform(0.0, 1.0, 5), tau_theta=1e6))
+    net.add_population(
+        "adaptive",
+        5,
+        nv.IF_cond_exp_adaptive(
+            theta_init=rng.uniform(0.0, 1.0, 5), tau_theta=1e6, tau_lockout=np.array([0.0, 5.0, 50.0, 50.0, 7.5])
+        ),
+    )
     net.add_population("ca2", 3, nv.IF_curr_exp_ca2_adaptive(i_alpha=0.2, i_offset=0.02, tau_m=np.array([5.0, 6.0, 7.0])))
     net.add_population("soft_in", 4, nv.SoftLIF(sigma=0.05))
     net.add_population("soft_out", 2, nv.SoftLIF())

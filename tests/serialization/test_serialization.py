@@ -52,7 +52,7 @@ def test_round_trip_arrays_are_bit_identical(saved: Path, network: nv.Network) -
         compare(network.populations[name], loaded.populations[name])
     for name in network.projections:
         compare(network.projections[name], loaded.projections[name])
-    assert checked == 13
+    assert checked == 14
     assert loaded.populations["poisson"].cell_type.duration == float("inf")
     kernel = loaded.projections["image->feature"].synapse.weight
     assert kernel.shape == (3, 2, 3, 3) and kernel.dtype == np.float64
@@ -76,7 +76,7 @@ def test_saving_the_loaded_network_gives_identical_graph_and_datasets(tmp_path: 
     attrs1, arrays1 = contents(saved)
     attrs2, arrays2 = contents(again)
     assert attrs1 == attrs2
-    assert arrays1.keys() == arrays2.keys() and len(arrays1) == 13
+    assert arrays1.keys() == arrays2.keys() and len(arrays1) == 14
     for key, (dtype, values) in arrays1.items():
         assert arrays2[key][0] == dtype
         assert arrays2[key][1].shape == values.shape and arrays2[key][1].tobytes() == values.tobytes()
