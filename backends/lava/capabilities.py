@@ -10,6 +10,7 @@ and 3-bit exponent.
 
 from __future__ import annotations
 
+import dataclasses
 from types import MappingProxyType
 
 import numpy as np
@@ -59,14 +60,9 @@ LAVA_CAPABILITIES = Capabilities(
     recordables=frozenset({"v"}),
 )
 
-LAVA_FIXED_CAPABILITIES = Capabilities(
-    cell_types=CURRENT_LIF,
-    connectors=EVERY_CONNECTOR,
-    synapses=STATIC_SYNAPSE,
-    learns=False,
-    heterogeneous_delays=True,
+LAVA_FIXED_CAPABILITIES = dataclasses.replace(
+    LAVA_CAPABILITIES,
     arithmetic=frozenset({"loihi2"}),
-    recordables=frozenset({"v"}),
     unsupported=MappingProxyType(_FIXED_UNSUPPORTED),
     tolerances=MappingProxyType(_FIXED_TOLERANCES),
 )

@@ -12,6 +12,7 @@ per convolution target.
 
 from __future__ import annotations
 
+import dataclasses
 from types import MappingProxyType
 
 import numpy as np
@@ -61,14 +62,10 @@ NENGO_CAPABILITIES = Capabilities(
     unsupported=MappingProxyType(_NENGO_UNSUPPORTED),
 )
 
-NENGO_LOIHI_CAPABILITIES = Capabilities(
-    cell_types=CURRENT_LIF,
-    connectors=EVERY_CONNECTOR,
-    synapses=STATIC_SYNAPSE,
-    learns=False,
-    heterogeneous_delays=True,
+NENGO_LOIHI_CAPABILITIES = dataclasses.replace(
+    NENGO_CAPABILITIES,
     arithmetic=frozenset({"loihi1"}),
-    recordables=frozenset({"v"}),
+    unsupported=MappingProxyType({}),
     tolerances=MappingProxyType(_NENGO_LOIHI_TOLERANCES),
 )
 
