@@ -44,14 +44,19 @@ Numerics compared with docs/semantics.md:
 
 from __future__ import annotations
 
+from types import MappingProxyType
 from typing import Any
 
 from neurovpr.errors import ValidationError
+from neurovpr.hardware.check import HardwareTarget
+from neurovpr.ir.network import Network
 from neurovpr.runtime.backend import Backend
+from neurovpr.runtime.simulation import Simulation
 
 from .capabilities import CAPABILITIES
 
-_OPTIONS = ("target",)
+#: Brian2's code generation targets.
+TARGETS = ("numpy", "cython")
 
 
 class Brian2Backend(Backend):
@@ -63,16 +68,17 @@ class Brian2Backend(Backend):
     version_of = "brian2"
     extra = "brian2"
     capabilities = CAPABILITIES
+    options = MappingProxyType({"target": "numpy"})
 
-    def _compile(self, network: Any, *, dt: float, seed: int, hardware: Any, **options: Any) -> Any:
-        unknown = sorted(set(options) - set(_OPTIONS))
-        if unknown:
-            raise ValidationError(f"Backend 'brian2' has no option {unknown[0]!r} (options: {', '.join(_OPTIONS)}).")
-        target = options.get("target", "numpy")
-        from .simulation import TARGETS, Brian2Simulation
-
+    def _compile(
+        self, network: Network, *, dt: float, seed: int, hardware: HardwareTarget | None, **options: Any
+    ) -> Simulation:
+        target = options["target"]
         if target not in TARGETS:
             raise ValidationError(f"Backend 'brian2': target must be one of {', '.join(map(repr, TARGETS))}, got {target!r}.")
+        # Brian2 is imported when a network is compiled, not with the declaration
+        from .simulation import Brian2Simulation
+
         return Brian2Simulation(network, dt=dt, seed=seed, target=target)
 
 

@@ -20,6 +20,9 @@ from typing import Any
 import brian2 as b2
 import numpy as np
 
+from neurovpr.backendkit.params import per_neuron
+from neurovpr.backendkit.sources import array_events
+from neurovpr.backendkit.timing import delay_steps
 from neurovpr.errors import SimulationError, UnsupportedFeatureError
 from neurovpr.ir.cells import (
     IF_cond_exp,
@@ -189,7 +192,7 @@ def _build_neurons(pop: Population, ctx: BuildContext) -> PopulationHandle:
 def _build_poisson(pop: Population, ctx: BuildContext) -> PopulationHandle:
     cell = pop.cell_type
     assert isinstance(cell, SpikeSourcePoisson)
-    rates = np.broadcast_to(np.asarray(cell.rate, dtype=np.float64), (pop.size,)).copy()
+    rates = per_neuron(cell.rate, pop.size)
     group = b2.PoissonGroup(
         pop.size,
         rates=rates * b2.Hz,
@@ -209,9 +212,7 @@ def array_spikes(population: str, src: SpikeSourceArray, dt: float, from_step: i
     emits at most one spike per neuron and step, so a neuron with two spikes rounding
     to the same step is refused.
     """
-    counts = np.diff(src.offsets)
-    neurons = np.repeat(np.arange(src.n_neurons, dtype=np.int64), counts)
-    steps = np.rint(src.times / dt).astype(np.int64)
+    steps, neurons = array_events(src, dt)
     keep = steps >= from_step
     neurons, steps = neurons[keep], steps[keep]
     order = np.lexsort((neurons, steps))
@@ -270,7 +271,7 @@ def _build_synapses(
 ) -> ProjectionHandle:
     conductance = post.conductance_based
     model = synapse_model(proj.synapse, conductance=conductance, receptor=proj.receptor_type)
-    steps = np.maximum(1, np.rint(conns.delay / ctx.dt)).astype(np.int64)
+    steps = delay_steps(conns.delay, ctx.dt)
     # Arrivals run at the start of the step they act in (the pathway runs in the 'start'
     # slot and sees the spikes of the previous step). A neuron's spike found in Brian2's
     # step j is stamped (j + 1) dt, a source's at j dt; either is pushed at the start of

@@ -2,34 +2,20 @@
 
 from __future__ import annotations
 
-from types import MappingProxyType
-
+from neurovpr.backendkit.capabilities import (
+    EVERY_CONNECTOR,
+    EVERY_RECORDABLE,
+    EVERY_SYNAPSE,
+    SPIKE_SOURCES,
+    SPIKING_NEURONS,
+)
 from neurovpr.runtime.backend import Capabilities
 
 CAPABILITIES = Capabilities(
-    cell_types=frozenset(
-        {
-            "IF_curr_exp",
-            "IF_cond_exp",
-            "IF_cond_exp_adaptive",
-            "IF_curr_exp_ca2_adaptive",
-            "SpikeSourcePoisson",
-            "SpikeSourceArray",
-        }
-    ),
-    connectors=frozenset(
-        {
-            "AllToAllConnector",
-            "OneToOneConnector",
-            "FixedProbabilityConnector",
-            "FixedNumberPreConnector",
-            "FromListConnector",
-            "ConvolutionConnector",
-        }
-    ),
-    synapses=frozenset({"StaticSynapse", "STDPMechanism", "DiehlCookSTDP"}),
+    cell_types=SPIKING_NEURONS | SPIKE_SOURCES,
+    connectors=EVERY_CONNECTOR,
+    synapses=EVERY_SYNAPSE,
     learns=True,
     heterogeneous_delays=True,
-    recordables=frozenset({"v", "isyn_exc", "isyn_inh", "gsyn_exc", "gsyn_inh", "theta", "i_ca2"}),
-    unsupported=MappingProxyType({}),
+    recordables=EVERY_RECORDABLE,
 )

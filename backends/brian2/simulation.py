@@ -16,12 +16,14 @@ cython target, the cache folder preference while code is compiled.
 from __future__ import annotations
 
 import contextlib
-import math
 from collections.abc import Iterator
 from typing import Any
 
+import brian2 as b2
 import numpy as np
 
+from neurovpr.backendkit.params import per_neuron
+from neurovpr.backendkit.timing import window_steps
 from neurovpr.errors import BackendUnavailableError, SimulationError, UnsupportedFeatureError
 from neurovpr.ir.cells import SpikeSourceArray, SpikeSourcePoisson
 from neurovpr.ir.connectivity import expand
@@ -29,10 +31,11 @@ from neurovpr.ir.network import Network
 from neurovpr.paths import cache_dir
 from neurovpr.runtime.simulation import Simulation
 
-__all__ = ["Brian2Simulation", "TARGETS"]
+from . import build
+from .translation import RECORD_MAP
 
-#: Code-generation targets and the Brian2 code object class each uses.
-TARGETS = ("numpy", "cython")
+__all__ = ["Brian2Simulation"]
+
 _INITIAL = "neurovpr_initial"
 _CACHE_PREF = "codegen.runtime.cython.cache_dir"
 
@@ -51,12 +54,6 @@ class Brian2Simulation(Simulation):
 
     def __init__(self, network: Network, *, dt: float, seed: int, target: str = "numpy") -> None:
         super().__init__(network, backend="brian2", dt=dt, seed=seed)
-        import brian2 as b2
-
-        from . import build
-
-        self._b2 = b2
-        self._build = build
         self._target = target
         self._cache = cache_dir("brian2") if target == "cython" else None
         if target == "cython":
@@ -91,12 +88,9 @@ class Brian2Simulation(Simulation):
         for name, pop in network.populations.items():
             cell = pop.cell_type
             if isinstance(cell, SpikeSourcePoisson):
-                self._rates[name] = np.broadcast_to(np.asarray(cell.rate, dtype=float), (pop.size,)).copy()
-                end = cell.start + cell.duration
-                self._windows[name] = (
-                    float(math.ceil(cell.start / dt - 1e-9)),
-                    math.inf if math.isinf(end) else float(math.ceil(end / dt - 1e-9)),
-                )
+                self._rates[name] = per_neuron(cell.rate, pop.size)
+                first, end = window_steps(cell.start, cell.duration, dt)
+                self._windows[name] = (float(first), end)
             elif isinstance(cell, SpikeSourceArray):
                 self._arrays[name] = cell
         self._monitors: dict[tuple[str, str], Any] = {}
@@ -113,7 +107,7 @@ class Brian2Simulation(Simulation):
         if self._cache is None:
             yield
             return
-        prefs = self._b2.prefs
+        prefs = b2.prefs
         old = prefs[_CACHE_PREF]
         prefs[_CACHE_PREF] = str(self._cache)
         try:
@@ -139,21 +133,21 @@ class Brian2Simulation(Simulation):
         for name, rates in self._rates.items():
             start, stop = self._windows[name]
             active = start <= step < stop
-            self._build.set_values(self._pops[name].group, "rates", rates if active else np.zeros_like(rates))
+            build.set_values(self._pops[name].group, "rates", rates if active else np.zeros_like(rates))
 
     def _apply_array(self, name: str) -> None:
         src = self._arrays[name]
-        neurons, steps = self._build.array_spikes(name, src, self._dt, self._step)
+        neurons, steps = build.array_spikes(name, src, self._dt, self._step)
         group = self._pops[name].group
-        group.set_spikes(neurons, steps * (self._dt * 1e-3) * self._b2.second)
+        group.set_spikes(neurons, steps * (self._dt * 1e-3) * b2.second)
 
     def _live_statistics(self) -> dict[str, int]:
         counts = {name: np.asarray(h.spikes.count[:], dtype=np.int64) for name, h in self._pops.items()}
         events = plastic = 0
         for handle in self._projs.values():
             if handle.model.plastic:
-                events += int(np.rint(self._build.get_values(handle.synapses, "n_events").sum()))
-                plastic += int(np.rint(self._build.get_values(handle.synapses, "n_plastic").sum()))
+                events += int(np.rint(build.get_values(handle.synapses, "n_events").sum()))
+                plastic += int(np.rint(build.get_values(handle.synapses, "n_plastic").sum()))
             else:
                 events += int(counts[handle.pre_population] @ handle.out_degree)
         return {
@@ -166,7 +160,7 @@ class Brian2Simulation(Simulation):
         old = self._monitors.pop((population, variable), None)
         if old is not None:
             self._net.remove(old)
-        mon = self._build.build_state_monitor(self._pops[population], variable, neurons, self._ctx)
+        mon = build.build_state_monitor(self._pops[population], variable, neurons, self._ctx)
         self._monitors[(population, variable)] = mon
         self._net.add(mon)
 
@@ -193,7 +187,6 @@ class Brian2Simulation(Simulation):
             self._rates[population] = np.asarray(value, dtype=float).copy()
 
     def _run(self, n_steps: int) -> None:
-        b2 = self._b2
         dt_s = self._dt * 1e-3 * b2.second
         b2.seed(self._seed_value())
         self._runs += 1
@@ -208,12 +201,12 @@ class Brian2Simulation(Simulation):
                 self._step = cut
                 for handle in self._pops.values():
                     if handle.kind == "neuron":
-                        self._build.carry_last_spikes(handle, cut - 1, self._dt)
+                        build.carry_last_spikes(handle, cut - 1, self._dt)
         self._done["steps"] += n_steps
         self._done["neuron_updates"] += n_steps * self._n_neurons
 
     def _reset(self) -> None:
-        weights = {name: self._build.get_values(h.synapses, "w") for name, h in self._projs.items()}
+        weights = {name: build.get_values(h.synapses, "w") for name, h in self._projs.items()}
         learned = {name: self._learned_state(name) for name in self._pops}
         for key, value in self._live_statistics().items():
             self._done[key] += value
@@ -222,10 +215,10 @@ class Brian2Simulation(Simulation):
         self._net.restore(_INITIAL)
         self._step = 0
         for name, handle in self._projs.items():
-            self._build.set_values(handle.synapses, "w", weights[name])
+            build.set_values(handle.synapses, "w", weights[name])
         for name, state in learned.items():
             for var, values in state.items():
-                self._build.set_values(self._pops[name].group, var, values * 1e-3)
+                build.set_values(self._pops[name].group, var, values * 1e-3)
         self._set_plasticity(self._plastic)
         for name in self._arrays:
             self._apply_array(name)
@@ -237,10 +230,10 @@ class Brian2Simulation(Simulation):
         value = 1.0 if on else 0.0
         for handle in self._projs.values():
             if handle.model.plastic:
-                self._build.set_values(handle.synapses, "plastic", value)
+                build.set_values(handle.synapses, "plastic", value)
         for handle in self._pops.values():
             if handle.kind == "neuron" and "learn" in handle.group.variables:
-                self._build.set_values(handle.group, "learn", value)
+                build.set_values(handle.group, "learn", value)
 
     def _set_recording(self, population: str, variable: str, neurons: np.ndarray) -> None:
         self._new_monitor(population, variable, neurons)
@@ -257,8 +250,6 @@ class Brian2Simulation(Simulation):
         return steps[order] * self._dt, i[order]
 
     def _trace(self, population: str, variable: str) -> tuple[np.ndarray, np.ndarray]:
-        from .translation import RECORD_MAP
-
         mon = self._monitors[(population, variable)]
         brian_var, scale = RECORD_MAP[variable]
         steps = np.rint(np.asarray(mon.t_[:], dtype=np.float64) / (self._dt * 1e-3)).astype(np.int64)
@@ -272,20 +263,20 @@ class Brian2Simulation(Simulation):
 
     def _weights(self, projection: str) -> np.ndarray:
         handle = self._projs[projection]
-        return self._build.get_values(handle.synapses, "w")[handle.order]
+        return build.get_values(handle.synapses, "w")[handle.order]
 
     def _set_weights(self, projection: str, values: np.ndarray) -> None:
         handle = self._projs[projection]
-        current = self._build.get_values(handle.synapses, "w")
+        current = build.get_values(handle.synapses, "w")
         current[handle.order] = values
-        self._build.set_values(handle.synapses, "w", current)
+        build.set_values(handle.synapses, "w", current)
 
     def _learned_state(self, population: str) -> dict[str, np.ndarray]:
         handle = self._pops[population]
         model = handle.model
         if model is None or "theta" not in model.learned:
             return {}
-        return {"theta": self._build.get_values(handle.group, "theta") * 1e3}
+        return {"theta": build.get_values(handle.group, "theta") * 1e3}
 
     def _statistics(self) -> dict[str, int]:
         live = self._live_statistics()

@@ -47,6 +47,7 @@ from typing import Any
 
 import numpy as np
 
+from neurovpr.backendkit.params import per_neuron
 from neurovpr.errors import UnsupportedFeatureError
 from neurovpr.ir.cells import (
     IF_cond_exp,
@@ -167,10 +168,6 @@ class NeuronModel:
     adjusted: tuple[str, ...] = ()
 
 
-def _col(value: Any, n: int) -> np.ndarray:
-    return np.broadcast_to(np.asarray(value, dtype=np.float64), (n,)).copy()
-
-
 def _tau_symbol(name: str, tau: np.ndarray, tau_m: np.ndarray) -> tuple[str, np.ndarray, bool]:
     """Template symbol for a current's decay constant and the (possibly separated) values.
 
@@ -205,41 +202,41 @@ def neuron_model(cell: NeuronType, n: int, dt: float, v_init: Any) -> NeuronMode
     """
     if not isinstance(cell, (IF_curr_exp, IF_cond_exp, IF_cond_exp_adaptive, IF_curr_exp_ca2_adaptive)):
         raise UnsupportedFeatureError(f"Backend 'brian2' cannot run cell type {type(cell).__name__}.")
-    get = {name: _col(getattr(cell, name), n) for name in ("cm", "tau_m", "tau_refrac", "tau_syn_E", "tau_syn_I")}
-    v_rest = _col(cell.v_rest, n)
+    get = {name: per_neuron(getattr(cell, name), n) for name in ("cm", "tau_m", "tau_refrac", "tau_syn_E", "tau_syn_I")}
+    v_rest = per_neuron(cell.v_rest, n)
     refrac_steps = np.rint(get["tau_refrac"] / dt)
     params = {
         "v_rest": v_rest * _MV,
-        "v_reset": _col(cell.v_reset, n) * _MV,
-        "v_thresh": _col(cell.v_thresh, n) * _MV,
+        "v_reset": per_neuron(cell.v_reset, n) * _MV,
+        "v_thresh": per_neuron(cell.v_thresh, n) * _MV,
         "tau_m": get["tau_m"] * _MS,
         "tau_syn_E": get["tau_syn_E"] * _MS,
         "tau_syn_I": get["tau_syn_I"] * _MS,
         "t_ref": (refrac_steps + 1.0) * dt * _MS,
-        "i_offset": _col(cell.i_offset, n) * _NA,
+        "i_offset": per_neuron(cell.i_offset, n) * _NA,
         "c_m": get["cm"] * _NF,
     }
-    v0 = v_rest if v_init is None else _col(v_init, n)
+    v0 = v_rest if v_init is None else per_neuron(v_init, n)
     initial = {"v": v0 * _MV}
     learned: tuple[str, ...] = ()
     adjusted: list[str] = []
     if isinstance(cell, (IF_cond_exp, IF_cond_exp_adaptive)):
         equations = _COND_V + _COMMON
-        params["e_rev_E"] = _col(cell.e_rev_E, n) * _MV
-        params["e_rev_I"] = _col(cell.e_rev_I, n) * _MV
+        params["e_rev_E"] = per_neuron(cell.e_rev_E, n) * _MV
+        params["e_rev_I"] = per_neuron(cell.e_rev_I, n) * _MV
         params["f_E"] = get["tau_syn_E"] / dt * -np.expm1(-dt / get["tau_syn_E"])
         params["f_I"] = get["tau_syn_I"] / dt * -np.expm1(-dt / get["tau_syn_I"])
         initial.update(g_E=np.zeros(n), g_I=np.zeros(n))
         threshold, reset, method = _THRESHOLD, _RESET, "exponential_euler"
         if isinstance(cell, IF_cond_exp_adaptive):
             equations += _THETA_EQ
-            params["tau_theta"] = _col(cell.tau_theta, n) * _MS
-            params["theta_plus"] = _col(cell.theta_plus, n) * _MV
+            params["tau_theta"] = per_neuron(cell.tau_theta, n) * _MS
+            params["theta_plus"] = per_neuron(cell.theta_plus, n) * _MV
             # the first step allowed to spike again is L = max(R, round(tau_lockout / dt)) steps after a spike, where
             # t - lastspike = L dt; half a step below that keeps the comparison clear of round-off
-            lock_steps = np.maximum(refrac_steps, np.rint(_col(cell.tau_lockout, n) / dt))
+            lock_steps = np.maximum(refrac_steps, np.rint(per_neuron(cell.tau_lockout, n) / dt))
             params["t_lock"] = (lock_steps - 0.5) * dt * _MS
-            initial["theta"] = _col(cell.theta_init, n) * _MV
+            initial["theta"] = per_neuron(cell.theta_init, n) * _MV
             threshold, reset, learned = _THRESHOLD_THETA, _RESET_THETA, ("theta",)
     else:
         tau_m = get["tau_m"]
@@ -253,11 +250,11 @@ def neuron_model(cell: NeuronType, n: int, dt: float, v_init: Any) -> NeuronMode
         initial.update(I_E=np.zeros(n), I_I=np.zeros(n))
         threshold, reset, method = _THRESHOLD, _RESET, "exact"
         if ca:
-            sym_c, tau_c, adj_c = _tau_symbol("tau_ca2", _col(cell.tau_ca2, n), tau_m)
+            sym_c, tau_c, adj_c = _tau_symbol("tau_ca2", per_neuron(cell.tau_ca2, n), tau_m)
             equations += _CA_EQ.format(tau_ca=sym_c) + _TAU_CA_PARAM
             params["tau_ca2"] = tau_c * _MS
-            params["i_alpha"] = _col(cell.i_alpha, n) * _NA
-            initial["I_ca2"] = _col(cell.i_ca2, n) * _NA
+            params["i_alpha"] = per_neuron(cell.i_alpha, n) * _NA
+            initial["I_ca2"] = per_neuron(cell.i_ca2, n) * _NA
             adjusted += ["tau_ca2"] * adj_c
             reset = _RESET_CA
     return NeuronModel(

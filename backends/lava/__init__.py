@@ -15,12 +15,17 @@ incompatible module in memory. Importing this package does not import Lava.
 
 from __future__ import annotations
 
+from types import MappingProxyType
 from typing import Any
 
-from neurovpr.errors import BackendUnavailableError, ValidationError
+from neurovpr.errors import BackendUnavailableError
+from neurovpr.hardware.check import HardwareTarget
+from neurovpr.ir.network import Network
 from neurovpr.runtime.backend import Backend
+from neurovpr.runtime.simulation import Simulation
 
 from .capabilities import LAVA_CAPABILITIES, LAVA_FIXED_CAPABILITIES, network_problems
+from .compat import import_lava
 
 __all__ = ["LavaBackend", "LavaFixedBackend", "LAVA", "LAVA_FIXED"]
 
@@ -34,35 +39,29 @@ class LavaBackend(Backend):
     version_of = "lava-nc"
     extra = "lava"
     capabilities = LAVA_CAPABILITIES
+    options = MappingProxyType({"buffer_steps": 1000})
     #: Select the fixed-point (bit-accurate Loihi 2) models.
     fixed = False
-    #: Options ``compile`` accepts.
-    options = frozenset({"buffer_steps"})
 
     def unavailable_reason(self) -> str | None:
         """``None`` when Lava imports (through the Python 3.11 fix), otherwise why not and how to reinstall."""
-        from .compat import import_lava
-
         try:
             import_lava()
         except BackendUnavailableError as exc:
             return str(exc).rstrip(".")
         return None
 
-    def unsupported_features(self, network: Any) -> list[str]:
-        """The capability table's refusals, then the parameters Lava's LIF cannot express."""
-        problems = super().unsupported_features(network)
-        return problems or network_problems(network)
+    def network_problems(self, network: Network) -> list[str]:
+        """The parameters Lava's LIF cannot express."""
+        return network_problems(network)
 
-    def _compile(self, network: Any, *, dt: float, seed: int, hardware: Any, **options: Any) -> Any:
-        unknown = sorted(set(options) - self.options)
-        if unknown:
-            raise ValidationError(
-                f"Backend {self.name!r} has no option {unknown[0]!r} (options: {', '.join(sorted(self.options))})."
-            )
+    def _compile(
+        self, network: Network, *, dt: float, seed: int, hardware: HardwareTarget | None, **options: Any
+    ) -> Simulation:
+        # Lava's runtime is imported when a network is compiled, not with the declaration
         from .simulation import LavaSimulation
 
-        return LavaSimulation(network, backend=self.name, dt=dt, seed=seed, fixed=self.fixed, **options)
+        return LavaSimulation(network, backend=self.name, dt=dt, seed=seed, fixed=self.fixed, hardware=hardware, **options)
 
 
 class LavaFixedBackend(LavaBackend):

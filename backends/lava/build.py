@@ -29,12 +29,14 @@ from typing import Any
 import numpy as np
 import scipy.sparse
 
+from neurovpr.backendkit.timing import delay_steps
 from neurovpr.ir.connectivity import Connections
 from neurovpr.ir.connectors import ConvolutionConnector
 from neurovpr.ir.network import Network, Projection
 
+from . import resets
 from .compat import import_lava
-from .translation import LavaLIF, delay_steps, fixed_weights, lava_lif, weight_scale
+from .translation import LavaLIF, fixed_weights, lava_lif, weight_scale
 
 __all__ = ["LavaNetwork", "build_network", "receptors_by_population"]
 
@@ -73,11 +75,9 @@ class LavaNetwork:
         from lava.proc.io.injector import PyLoihiInjectorModel
 
         models: dict[Any, Any] = {lava.Injector: PyLoihiInjectorModel, lava.Extractor: PyLoihiExtractorModel}
-        from .resets import model_map
-
         # Lava looks an exception up by process instance before searching for models by class
         # (it finds none for the backend's own processes): each is named explicitly
-        by_class = model_map(self.fixed)
+        by_class = resets.model_map(self.fixed)
         for process in self.resettable:
             models[process] = by_class[type(process)]
         return lava.Loihi2SimCfg(select_tag="fixed_pt" if self.fixed else "floating_pt", exception_proc_model_map=models)
@@ -92,8 +92,6 @@ def receptors_by_population(network: Network) -> dict[str, frozenset[str]]:
 
 
 def _lif_process(params: LavaLIF, size: int, fixed: bool) -> Any:
-    from .resets import ResettableLIF, ResettableLIFRefractory
-
     if fixed:
         kwargs: dict[str, Any] = {
             "shape": (size,),
@@ -109,7 +107,7 @@ def _lif_process(params: LavaLIF, size: int, fixed: bool) -> Any:
         kwargs = {
             "shape": (size,),
             "u": np.zeros(size),
-            "v": params.v_init.copy(),
+            "v": params.compartment.v_init.copy(),
             "du": params.du,
             "dv": params.dv,
             "vth": params.vth,
@@ -117,8 +115,8 @@ def _lif_process(params: LavaLIF, size: int, fixed: bool) -> Any:
             "bias_exp": np.zeros(size),
         }
     if params.refractory_steps > 0:
-        return ResettableLIFRefractory(refractory_period=params.refractory_steps, **kwargs)
-    return ResettableLIF(**kwargs)
+        return resets.ResettableLIFRefractory(refractory_period=params.refractory_steps, **kwargs)
+    return resets.ResettableLIF(**kwargs)
 
 
 def _uniform_scale(scale: np.ndarray) -> bool:
@@ -133,8 +131,6 @@ def _conv_process(
     ``used`` are the values the expanded connections carry (what the ``DelaySparse``
     path quantises): a fixed-point kernel gets their exponent and sign mode.
     """
-    from .resets import ResettableDelayConv
-
     extra: dict[str, Any] = {}
     if fixed:
         lava = import_lava()
@@ -145,7 +141,7 @@ def _conv_process(
     (c, h, w), (sh, sw), (ph, pw) = conn.input_shape, conn.stride, conn.padding
     # Lava convolves (flipped kernel) in (x, y, channel) order; neurovpr correlates in (channel, y, x)
     weight = np.ascontiguousarray(kernel[:, :, ::-1, ::-1].transpose(0, 3, 2, 1))
-    return ResettableDelayConv(
+    return resets.ResettableDelayConv(
         weight=weight, input_shape=(w, h, c), padding=(pw, ph), stride=(sw, sh), delays=delay, name=proj.name, **extra
     )
 
@@ -166,8 +162,6 @@ def _matrix_process(
 
     Each is the resettable version of :mod:`.resets`.
     """
-    from . import resets
-
     matrix = scipy.sparse.coo_matrix((values, (post, pre)), shape=shape).tocsr()
     matrix.sum_duplicates()
     kwargs: dict[str, Any] = {"name": name}

@@ -10,57 +10,61 @@ and 3-bit exponent.
 
 from __future__ import annotations
 
+import dataclasses
 from types import MappingProxyType
 
 import numpy as np
 
+from neurovpr.backendkit.capabilities import CURRENT_LIF, EVERY_CONNECTOR, STATIC_SYNAPSE
+from neurovpr.backendkit.timing import delay_steps
 from neurovpr.ir.cells import IF_curr_exp
 from neurovpr.ir.connectivity import Connections
 from neurovpr.ir.network import Network
-from neurovpr.runtime.backend import Capabilities
+from neurovpr.runtime.backend import Capabilities, ToleranceOverride
 
-from .translation import delay_steps, lava_lif, lif_problems
+from .translation import lava_lif, lif_problems
 
 __all__ = ["LAVA_CAPABILITIES", "LAVA_FIXED_CAPABILITIES", "network_problems", "compile_problems"]
 
 #: Loihi 2 synaptic delays are 6-bit (lava/proc/dense/models.py, PyDelayDenseModelBitAcc).
 _MAX_FIXED_DELAY = 63
 
-_CELLS = frozenset({"IF_curr_exp", "SpikeSourcePoisson", "SpikeSourceArray"})
-_CONNECTORS = frozenset(
-    {
-        "AllToAllConnector",
-        "OneToOneConnector",
-        "FixedProbabilityConnector",
-        "FixedNumberPreConnector",
-        "FromListConnector",
-        "ConvolutionConnector",
-    }
-)
 _DELAY_LIMIT = "the case uses a 7.3 ms delay, 73 steps at dt = 0.1 ms; Loihi 2 synaptic delays are 6-bit (at most 63 steps)"
-#: Conformance cases (tests/conformance/cases.py) ``lava-fixed`` cannot run, with the reason.
+#: Conformance cases (neurovpr.conformance) ``lava-fixed`` cannot run, with the reason.
 _FIXED_UNSUPPORTED = {"delay_shift": _DELAY_LIMIT, "delay_heterogeneous": _DELAY_LIMIT}
 
+#: Looser conformance bounds of ``lava-fixed``: Lava's bit-accurate models compute in Loihi 2's formats.
+_FIXED_TOLERANCES = {
+    "psp_curr": ToleranceOverride(
+        changes={"trace_rel": 0.02},
+        reason="Lava's fixed_pt models (bit-accurate Loihi 2): 12-bit du/dv, 8-bit weight mantissas, "
+        "u and v truncated every step; measured 0.77 % of the PSP peak",
+    ),
+    "psp_curr_equal_tau": ToleranceOverride(
+        changes={"trace_rel": 0.03},
+        reason="Loihi 2's 12-bit du and dv compound in the alpha-shaped PSP; measured 1.6 % of the peak",
+    ),
+    "lif_rate_curr": ToleranceOverride(
+        changes={"trace_rel": 0.02, "spike_time_ms": 3.0},
+        reason="the 12-bit membrane decay moves the steady state by up to 0.6 %: near rheobase "
+        "(0.3 nA) each interval grows by about 0.3 ms, 2.4 ms over 8 spikes",
+    ),
+}
+
 LAVA_CAPABILITIES = Capabilities(
-    cell_types=_CELLS,
-    connectors=_CONNECTORS,
-    synapses=frozenset({"StaticSynapse"}),
+    cell_types=CURRENT_LIF,
+    connectors=EVERY_CONNECTOR,
+    synapses=STATIC_SYNAPSE,
     learns=False,
     heterogeneous_delays=True,
-    hardware=frozenset(),
     recordables=frozenset({"v"}),
-    unsupported=MappingProxyType({}),
 )
 
-LAVA_FIXED_CAPABILITIES = Capabilities(
-    cell_types=_CELLS,
-    connectors=_CONNECTORS,
-    synapses=frozenset({"StaticSynapse"}),
-    learns=False,
-    heterogeneous_delays=True,
-    hardware=frozenset({"loihi2"}),
-    recordables=frozenset({"v"}),
+LAVA_FIXED_CAPABILITIES = dataclasses.replace(
+    LAVA_CAPABILITIES,
+    arithmetic=frozenset({"loihi2"}),
     unsupported=MappingProxyType(_FIXED_UNSUPPORTED),
+    tolerances=MappingProxyType(_FIXED_TOLERANCES),
 )
 
 

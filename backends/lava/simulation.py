@@ -4,20 +4,18 @@ from __future__ import annotations
 
 import time
 import weakref
-from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 
+from neurovpr.backendkit.hosted import HostedSimulation
 from neurovpr.errors import SimulationError, UnsupportedFeatureError, ValidationError
-from neurovpr.ir.connectivity import expand
-from neurovpr.ir.connectors import ConvolutionConnector
+from neurovpr.hardware.check import HardwareTarget
 from neurovpr.ir.network import Network
-from neurovpr.runtime.simulation import Simulation
 
+from .build import build_network
 from .capabilities import compile_problems
 from .compat import import_lava
-from .sources import SourceState
 
 __all__ = ["LavaSimulation"]
 
@@ -41,12 +39,12 @@ def _stop(process: Any) -> None:
         infrastructure.smm.shutdown()
 
 
-class LavaSimulation(Simulation):
+class LavaSimulation(HostedSimulation):
     """A network as Lava processes on ``Loihi2SimCfg``.
 
     Parameters
     ----------
-    network, backend, dt, seed
+    network, backend, dt, seed, hardware
         As for :class:`~neurovpr.runtime.simulation.Simulation`.
     fixed
         Select the ``fixed_pt`` (bit-accurate Loihi 2) process models instead of ``floating_pt``.
@@ -69,30 +67,15 @@ class LavaSimulation(Simulation):
         dt: float,
         seed: int,
         fixed: bool,
+        hardware: HardwareTarget | None = None,
         buffer_steps: int = 1000,
     ) -> None:
-        super().__init__(network, backend=backend, dt=dt, seed=seed)
+        super().__init__(network, backend=backend, dt=dt, seed=seed, hardware=hardware)
         if isinstance(buffer_steps, bool) or not isinstance(buffer_steps, (int, np.integer)) or buffer_steps < 1:
             raise ValidationError(f"Backend {backend!r}: buffer_steps must be an integer >= 1, got {buffer_steps!r}.")
-        net = self._network
         self._fixed = fixed
         self._buffer = int(buffer_steps)
-        self._conns = {name: expand(net, proj, dt=dt, seed=seed) for name, proj in net.projections.items()}
-        problems = compile_problems(net, self._conns, dt, fixed=fixed)
-        if problems:
-            more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
-            raise UnsupportedFeatureError(f"Backend {backend!r} cannot run {problems[0]}{more}.")
-        self._values = {name: conns.weight.copy() for name, conns in self._conns.items()}
-        self._out_degree = {
-            name: np.bincount(conns.pre, minlength=net.populations[net.projections[name].pre].size)
-            for name, conns in self._conns.items()
-        }
-        self._sources = {name: SourceState(pop, dt=dt, seed=seed) for name, pop in net.populations.items() if pop.is_source}
-        self._neuron_pops = [name for name, pop in net.populations.items() if not pop.is_source]
-        self._steps = 0
-        self._stats = {"steps": 0, "neuron_updates": 0, "spikes": 0, "synaptic_events": 0, "plastic_updates": 0}
-        self._run_ns = 0
-        self._build_ns = 0
+        self._refuse(compile_problems(self._network, self._conns, dt, fixed=fixed))
         self._built: Any = None
         self._finalizer: Any = None
         self._clear_records()
@@ -104,8 +87,6 @@ class LavaSimulation(Simulation):
         if not self._neuron_pops:
             return
         import_lava()
-        from .build import build_network
-
         started = time.perf_counter_ns()
         built = build_network(self._network, self._conns, self._values, dt=self._dt, fixed=self._fixed, buffer_steps=self._buffer)
         anchor = built.anchor
@@ -133,18 +114,7 @@ class LavaSimulation(Simulation):
             self._finalizer = None
         self._built = None
 
-    def _clear_records(self) -> None:
-        pops = self._network.populations
-        self._counts = {name: np.zeros(pop.size, dtype=np.int64) for name, pop in pops.items()}
-        self._trains: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {name: [] for name in pops}
-        self._voltages: dict[str, list[np.ndarray]] = {name: [] for name, var in self._recording if var == "v"}
-
     # -- facts -----------------------------------------------------------------
-    @property
-    def time(self) -> float:
-        """Simulated time since the last reset (ms)."""
-        return self._steps * self._dt
-
     def process_kinds(self) -> dict[str, str]:
         """The Lava process class each projection became.
 
@@ -154,9 +124,6 @@ class LavaSimulation(Simulation):
         return dict(self._built.kinds) if self._built is not None else {}
 
     # -- running ---------------------------------------------------------------
-    def _set_input(self, population: str, value: Any) -> None:
-        self._sources[population].set(value)
-
     def _run(self, n_steps: int) -> None:
         if self._neuron_pops and self._built is None:
             raise SimulationError(f"Backend {self._backend!r}: the simulation was closed.")
@@ -165,9 +132,7 @@ class LavaSimulation(Simulation):
             length = min(self._buffer, n_steps - done)
             self._run_chunk(length)
             done += length
-        n_neurons = sum(self._network.populations[name].size for name in self._neuron_pops)
-        self._stats["steps"] += n_steps
-        self._stats["neuron_updates"] += n_steps * n_neurons
+        self._record.add_steps(n_steps)
 
     def _run_chunk(self, length: int) -> None:
         """Queue the sources' spikes, run ``length`` steps (one by one when recording ``v``), collect the spikes."""
@@ -175,7 +140,7 @@ class LavaSimulation(Simulation):
         first = self._steps
         for name, source in self._sources.items():
             raster = source.raster(first, length)
-            self._record_spikes(name, raster, first, source_stamps=True)
+            self._record.add(name, raster, first, source=True)
             if built is not None and name in built.injectors:
                 for row in raster.astype(np.float64):
                     built.injectors[name].send(row)
@@ -191,7 +156,7 @@ class LavaSimulation(Simulation):
                     self._voltages[name].append(self._read_voltage(name)[None, :])
             for name, extractor in built.extractors.items():
                 spikes = np.stack([extractor.receive() for _ in range(length)]) > 0
-                self._record_spikes(name, spikes, first, source_stamps=False)
+                self._record.add(name, spikes, first, source=False)
         self._steps += length
 
     def _read_voltage(self, name: str) -> np.ndarray:
@@ -199,18 +164,7 @@ class LavaSimulation(Simulation):
         v = np.asarray(self._built.lifs[name].v.get(), dtype=np.float64)
         if self._fixed:
             v = v / (64.0 * params.fixed_v)
-        return params.v_zero + v * params.v_scale
-
-    def _record_spikes(self, name: str, raster: np.ndarray, first: int, *, source_stamps: bool) -> None:
-        rows, idx = np.nonzero(raster)
-        times = (first + rows + (0 if source_stamps else 1)) * self._dt
-        self._trains[name].append((times, idx))
-        counts = np.bincount(idx, minlength=raster.shape[1])
-        self._counts[name] += counts
-        self._stats["spikes"] += int(idx.size)
-        for pname, proj in self._network.projections.items():
-            if proj.pre == name:
-                self._stats["synaptic_events"] += int(counts @ self._out_degree[pname])
+        return params.compartment.to_mv(v)
 
     def _reset(self) -> None:
         self._reset_processes()
@@ -229,61 +183,8 @@ class LavaSimulation(Simulation):
             for process in built.resettable:
                 process.reset_request.set(request)
 
-    def _set_plasticity(self, on: bool) -> None:
-        """Nothing learns here (plastic synapses are refused at compile)."""
-
     def _set_recording(self, population: str, variable: str, neurons: np.ndarray) -> None:
         if variable != "v":
             del self._recording[(population, variable)]
             raise UnsupportedFeatureError(f"record: backend {self._backend!r} records only 'v', not {variable!r}.")
         self._voltages.setdefault(population, [])
-
-    # -- reading ---------------------------------------------------------------
-    def _spike_counts(self, population: str) -> np.ndarray:
-        return self._counts[population].copy()
-
-    def _spike_trains(self, population: str) -> tuple[np.ndarray, np.ndarray]:
-        parts = self._trains[population]
-        if not parts:
-            return np.zeros(0), np.zeros(0, dtype=np.int64)
-        times = np.concatenate([p[0] for p in parts])
-        idx = np.concatenate([p[1] for p in parts])
-        order = np.lexsort((idx, times))
-        return times[order], idx[order]
-
-    def _trace(self, population: str, variable: str) -> tuple[np.ndarray, np.ndarray]:
-        neurons = self._recording[(population, variable)]
-        parts = self._voltages.get(population, [])
-        values = np.concatenate(parts) if parts else np.zeros((0, self._network.populations[population].size))
-        start = self._steps - values.shape[0]
-        times = (start + np.arange(values.shape[0]) + 1) * self._dt
-        return times, values[:, neurons]
-
-    def _connections(self, projection: str) -> tuple[np.ndarray, np.ndarray]:
-        conns = self._conns[projection]
-        return conns.pre, conns.post
-
-    def _weights(self, projection: str) -> np.ndarray:
-        return self._values[projection].copy()
-
-    def _set_weights(self, projection: str, values: np.ndarray) -> None:
-        if isinstance(self._network.projections[projection].connector, ConvolutionConnector):
-            raise UnsupportedFeatureError(
-                f"set_weights: projection {projection!r} is convolutional; its shared kernel is fixed at compile."
-            )
-        if self._steps:
-            raise SimulationError(
-                f"set_weights: backend {self._backend!r} rebuilds its processes to change weights; "
-                f"call reset() before setting the weights of {projection!r}."
-            )
-        self._values[projection] = values
-        self._build()
-
-    def _learned_state(self, population: str) -> dict[str, np.ndarray]:
-        return {}
-
-    def _statistics(self) -> Mapping[str, int]:
-        stats = dict(self._stats)
-        stats["run_wall_ns"] = self._run_ns
-        stats["build_wall_ns"] = self._build_ns
-        return stats

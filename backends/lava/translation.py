@@ -1,14 +1,12 @@
 """Translation of ``IF_curr_exp`` populations and their projections into Lava's LIF terms (pure numpy).
 
 Lava's LIF (``lava.proc.lif``) updates, per step, ``u = u (1 - du) + a_in`` and
-``v = v (1 - dv) + u + bias`` and spikes when ``v > vth`` (then ``v = 0``). The
-membrane equation is linear, so measuring ``v`` from ``v_reset`` turns a resting value
-``v_rest != v_reset`` into a constant input. With ``dv = 1 - e_m``, ``du = 1 - e_s``
-(``e_x = exp(-dt / tau_x)``), ``vth = 1`` and
+``v = v (1 - dv) + u + bias`` and spikes when ``v > vth`` (then ``v = 0``). On the
+normalised compartment of :mod:`neurovpr.backendkit.lif` (``v`` measured from ``v_reset``
+in units of ``v_thresh - v_reset``, gain ``s``, constant input ``b``), with ``dv = 1 - e_m``,
+``du = 1 - e_s`` (``e_x = exp(-dt / tau_x)``), ``vth = 1``,
 
-- ``v = (v_mV - v_reset) / (v_thresh - v_reset)``,
-- ``bias = (1 - e_m) (s i_offset + (v_rest - v_reset) / (v_thresh - v_reset))``,
-  ``s = (tau_m / cm) / (v_thresh - v_reset)``,
+- ``bias = (1 - e_m) b``,
 - a synaptic weight ``W = (1 - e_m) s kappa w`` (negative for inhibitory projections),
   ``kappa`` the constant-current equivalent of a current decaying with ``tau_syn``
   over one step,
@@ -44,11 +42,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
-from neurovpr.ir.cells import IF_curr_exp
+from neurovpr.backendkit.lif import NormalisedLIF, current_factor, normalised_lif, shared_constant_problems
 from neurovpr.ir.network import Population
 
 __all__ = [
@@ -59,26 +56,13 @@ __all__ = [
     "current_factor",
     "weight_scale",
     "fixed_weights",
-    "delay_steps",
     "V_MAX",
 ]
 
-_RTOL = 1e-9
 #: Largest threshold integer used: 2**14 leaves u and v (24-bit) three bits above 64 V.
 V_MAX = 2**14
 _BIAS_MANT_MAX = 4095
 _BIAS_EXP_MAX = 7
-
-
-def _per_neuron(value: Any, size: int) -> np.ndarray:
-    return np.broadcast_to(np.asarray(value, dtype=np.float64), (size,)).copy()
-
-
-def _uniform(value: Any) -> float | None:
-    arr = np.asarray(value, dtype=np.float64)
-    if arr.ndim == 0:
-        return float(arr)
-    return float(arr[0]) if np.allclose(arr, arr[0], rtol=_RTOL, atol=0.0) else None
 
 
 @dataclass(frozen=True, slots=True)
@@ -87,38 +71,26 @@ class LavaLIF:
 
     Attributes
     ----------
+    compartment
+        The population as a normalised compartment (gain, time constants, initial voltage, mV scale).
     du, dv, vth
         Float decays and threshold (``vth = 1``).
     bias
-        Float bias per neuron.
-    v_init
-        Initial normalised voltage per neuron.
-    gain
-        ``s`` per neuron (1/nA).
+        Float bias per neuron (``dv`` times the compartment's constant input).
     refractory_steps
         ``round(tau_refrac / dt)``.
-    tau_m, tau_syn_e, tau_syn_i
-        PyNN time constants (ms).
-    v_zero, v_scale
-        ``v_mV = v_zero + v * v_scale`` (``v_zero = v_reset``).
     fixed_v
         Threshold integer ``V`` of the fixed-point model.
     du_int, dv_int, bias_mant, bias_exp, v_init_int
         The fixed-point parameters.
     """
 
+    compartment: NormalisedLIF
     du: float
     dv: float
     vth: float
     bias: np.ndarray
-    v_init: np.ndarray
-    gain: np.ndarray
     refractory_steps: int
-    tau_m: float
-    tau_syn_e: float
-    tau_syn_i: float
-    v_zero: np.ndarray
-    v_scale: np.ndarray
     fixed_v: int
     du_int: int
     dv_int: int
@@ -126,37 +98,18 @@ class LavaLIF:
     bias_exp: np.ndarray
     v_init_int: np.ndarray
 
-    def tau_syn(self, receptor_type: str) -> float:
-        """Synaptic time constant (ms) of a receptor type."""
-        return self.tau_syn_e if receptor_type == "excitatory" else self.tau_syn_i
-
 
 def lif_problems(pop: Population) -> list[str]:
     """Why an ``IF_curr_exp`` population cannot be a Lava LIF (phrases naming parameter and value)."""
-    cell = pop.cell_type
-    if not isinstance(cell, IF_curr_exp):
-        return []
-    return [
-        f"per-neuron {name} (population {pop.name!r}; Lava's LIF has one decay per process)"
-        for name in ("tau_m", "tau_refrac", "tau_syn_E", "tau_syn_I")
-        if _uniform(getattr(cell, name)) is None
-    ]
-
-
-def current_factor(tau_syn: float, tau_m: float, dt: float) -> float:
-    """``kappa``: the constant current acting like a unit current decaying with ``tau_syn`` over one step."""
-    e_s = math.exp(-dt / tau_syn)
-    e_m = math.exp(-dt / tau_m)
-    if math.isclose(tau_syn, tau_m, rel_tol=1e-9):
-        return (dt / tau_m) * e_m / (1.0 - e_m)
-    return tau_syn * (e_s - e_m) / ((tau_syn - tau_m) * (1.0 - e_m))
+    return shared_constant_problems(pop, "Lava's LIF has one decay per process")
 
 
 def weight_scale(lif: LavaLIF, receptor_type: str, dt: float) -> np.ndarray:
     """Per postsynaptic neuron, the factor from a weight (nA) to Lava's float weight ``W``."""
+    c = lif.compartment
     sign = 1.0 if receptor_type == "excitatory" else -1.0
-    kappa = current_factor(lif.tau_syn(receptor_type), lif.tau_m, dt)
-    return sign * lif.dv * kappa * lif.gain
+    kappa = current_factor(c.tau_syn(receptor_type), c.tau_m, dt)
+    return sign * lif.dv * kappa * c.gain
 
 
 def _quantise_bias(bias_internal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -180,20 +133,11 @@ def lava_lif(pop: Population, dt: float, receptors: frozenset[str] = frozenset()
     ValueError
         When ``i_offset`` is too large for Loihi 2's bias format (the message names it).
     """
-    cell = pop.cell_type
-    assert isinstance(cell, IF_curr_exp)
+    c = normalised_lif(pop)
     n = pop.size
-    tau_m, tau_ref = _uniform(cell.tau_m), _uniform(cell.tau_refrac)
-    tau_e, tau_i = _uniform(cell.tau_syn_E), _uniform(cell.tau_syn_I)
-    assert tau_m is not None and tau_ref is not None and tau_e is not None and tau_i is not None
-    rest = _per_neuron(cell.v_rest, n)
-    reset = _per_neuron(cell.v_reset, n)
-    scale = _per_neuron(cell.v_thresh, n) - reset
-    gain = _per_neuron(cell.tau_m, n) / _per_neuron(cell.cm, n) / scale
-    dv = 1.0 - math.exp(-dt / tau_m)
-    bias = dv * (gain * _per_neuron(cell.i_offset, n) + (rest - reset) / scale)
-    v_init = (_per_neuron(cell.v_rest if pop.v_init is None else pop.v_init, n) - reset) / scale
-    du = 1.0 - math.exp(-dt / (tau_i if receptors == frozenset({"inhibitory"}) else tau_e))
+    dv = 1.0 - math.exp(-dt / c.tau_m)
+    bias = dv * c.bias
+    du = 1.0 - math.exp(-dt / (c.tau_syn_i if receptors == frozenset({"inhibitory"}) else c.tau_syn_e))
     max_bias = float(np.abs(bias).max()) if n else 0.0
     limit = (_BIAS_MANT_MAX * 2**_BIAS_EXP_MAX) / 64.0
     fixed_v = V_MAX if max_bias == 0.0 else min(V_MAX, math.floor(limit / max_bias))
@@ -206,24 +150,18 @@ def lava_lif(pop: Population, dt: float, receptors: frozenset[str] = frozenset()
     du_int = int(np.clip(round(4096.0 * du) - 1, 0, 4095))
     dv_int = int(np.clip(round(4096.0 * dv), 0, 4095))
     return LavaLIF(
+        compartment=c,
         du=du,
         dv=dv,
         vth=1.0,
         bias=bias,
-        v_init=v_init,
-        gain=gain,
-        refractory_steps=round(tau_ref / dt),
-        tau_m=tau_m,
-        tau_syn_e=tau_e,
-        tau_syn_i=tau_i,
-        v_zero=reset,
-        v_scale=scale,
+        refractory_steps=round(c.tau_refrac / dt),
         fixed_v=int(fixed_v),
         du_int=du_int,
         dv_int=dv_int,
         bias_mant=mant,
         bias_exp=exp,
-        v_init_int=np.rint(v_init * 64.0 * fixed_v).astype(np.int64),
+        v_init_int=np.rint(c.v_init * 64.0 * fixed_v).astype(np.int64),
     )
 
 
@@ -269,8 +207,3 @@ def fixed_weights(values: np.ndarray, *, like: np.ndarray | None = None) -> Fixe
         exp = math.ceil(math.log2(top / 254.0))
         mant = 2 * np.clip(np.rint(values / 2.0 ** (exp + 1)), -128, 127)
     return FixedWeights(mant.astype(np.int64), int(exp), mode)
-
-
-def delay_steps(delays_ms: np.ndarray, dt: float) -> np.ndarray:
-    """Delays rounded to whole steps (at least one)."""
-    return np.maximum(np.rint(np.asarray(delays_ms, dtype=np.float64) / dt).astype(np.int64), 1)

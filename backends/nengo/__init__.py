@@ -14,10 +14,13 @@ Importing this package does not import Nengo.
 from __future__ import annotations
 
 import warnings
+from types import MappingProxyType
 from typing import Any
 
-from neurovpr.errors import ValidationError
+from neurovpr.hardware.check import HardwareTarget
+from neurovpr.ir.network import Network
 from neurovpr.runtime.backend import Backend
+from neurovpr.runtime.simulation import Simulation
 
 from .capabilities import NENGO_CAPABILITIES, NENGO_LOIHI_CAPABILITIES, network_problems
 
@@ -35,8 +38,6 @@ class NengoBackend(Backend):
     capabilities = NENGO_CAPABILITIES
     #: Build for NengoLoihi's emulator.
     loihi = False
-    #: Options ``compile`` accepts.
-    options: frozenset[str] = frozenset()
 
     def unavailable_reason(self) -> str | None:
         """``None`` when the simulators import, otherwise why not (with the extra to install).
@@ -48,16 +49,14 @@ class NengoBackend(Backend):
             warnings.filterwarnings("ignore", message=".*nengo_loihi.*has not been tested.*")
             return super().unavailable_reason()
 
-    def unsupported_features(self, network: Any) -> list[str]:
-        """The capability table's refusals, then the parameters Nengo's LIF cannot express."""
-        problems = super().unsupported_features(network)
-        return problems or network_problems(network, loihi=self.loihi)
+    def network_problems(self, network: Network) -> list[str]:
+        """The parameters Nengo's (or NengoLoihi's) LIF cannot express."""
+        return network_problems(network, loihi=self.loihi)
 
-    def _compile(self, network: Any, *, dt: float, seed: int, hardware: Any, **options: Any) -> Any:
-        unknown = sorted(set(options) - self.options)
-        if unknown:
-            known = ", ".join(sorted(self.options)) or "none"
-            raise ValidationError(f"Backend {self.name!r} has no option {unknown[0]!r} (options: {known}).")
+    def _compile(
+        self, network: Network, *, dt: float, seed: int, hardware: HardwareTarget | None, **options: Any
+    ) -> Simulation:
+        # Nengo is imported when a network is compiled, not with the declaration
         from .simulation import NengoSimulation
 
         return NengoSimulation(network, backend=self.name, dt=dt, seed=seed, loihi=self.loihi, hardware=hardware, **options)
@@ -72,7 +71,7 @@ class NengoLoihiBackend(NengoBackend):
     version_of = "nengo-loihi"
     capabilities = NENGO_LOIHI_CAPABILITIES
     loihi = True
-    options = frozenset({"block_shapes"})
+    options = MappingProxyType({"block_shapes": None})
 
 
 NENGO = NengoBackend()

@@ -20,13 +20,15 @@ import nengo
 import numpy as np
 import scipy.sparse
 
+from neurovpr.backendkit.lif import NormalisedLIF, normalised_lif
+from neurovpr.backendkit.timing import delay_steps
 from neurovpr.errors import UnsupportedFeatureError
 from neurovpr.ir.cells import IF_curr_exp
 from neurovpr.ir.connectivity import Connections
 from neurovpr.ir.connectors import ConvolutionConnector
 from neurovpr.ir.network import Network, Projection
 
-from .translation import LIFMapping, conv_padding_mode, delay_steps, filter_delay, lif_mapping, transform_scale
+from .translation import conv_padding_mode, filter_delay, transform_scale
 
 __all__ = ["SpikeGate", "SpikeFeed", "BuiltNetwork", "build_network", "quiet_nengo"]
 
@@ -119,7 +121,7 @@ class BuiltNetwork:
     """The Nengo objects standing for each IR element."""
 
     net: nengo.Network
-    mappings: dict[str, LIFMapping] = field(default_factory=dict)
+    mappings: dict[str, NormalisedLIF] = field(default_factory=dict)
     ensembles: dict[str, nengo.Ensemble] = field(default_factory=dict)
     gates: dict[tuple[str, int], nengo.Ensemble] = field(default_factory=dict)
     feeds: dict[str, list[SpikeFeed]] = field(default_factory=dict)
@@ -199,9 +201,9 @@ def _build_projection(
     loihi: bool,
 ) -> None:
     mapping = built.mappings[proj.post]
-    tau_syn = mapping.tau_syn_ms(proj.receptor_type)
+    tau_syn = mapping.tau_syn(proj.receptor_type)
     sign = 1.0 if proj.receptor_type == "excitatory" else -1.0
-    scale = sign * transform_scale(tau_syn, mapping.tau_m_ms, dt)
+    scale = sign * transform_scale(tau_syn, mapping.tau_m, dt)
     from_source = network.populations[proj.pre].is_source
     post_obj = built.ensembles[proj.post].neurons
     n_pre, n_post = network.populations[proj.pre].size, network.populations[proj.post].size
@@ -270,15 +272,15 @@ def build_network(
             if pop.is_source:
                 continue
             assert isinstance(pop.cell_type, IF_curr_exp)
-            mapping = lif_mapping(pop)
+            mapping = normalised_lif(pop)
             ens = nengo.Ensemble(
                 pop.size,
                 1,
                 neuron_type=nengo.LIF(
-                    tau_rc=mapping.tau_rc_s,
-                    tau_ref=mapping.tau_ref_s,
+                    tau_rc=mapping.tau_m / 1000.0,
+                    tau_ref=mapping.tau_refrac / 1000.0,
                     min_voltage=-np.inf,
-                    initial_state={"voltage": mapping.u_init, "refractory_time": np.zeros(pop.size)},
+                    initial_state={"voltage": mapping.v_init, "refractory_time": np.zeros(pop.size)},
                 ),
                 gain=mapping.gain,
                 bias=mapping.bias,

@@ -12,32 +12,25 @@ per convolution target.
 
 from __future__ import annotations
 
+import dataclasses
 from types import MappingProxyType
 
 import numpy as np
 
+from neurovpr.backendkit.capabilities import CURRENT_LIF, EVERY_CONNECTOR, STATIC_SYNAPSE
+from neurovpr.backendkit.lif import normalised_lif
+from neurovpr.backendkit.timing import delay_steps
 from neurovpr.ir.cells import IF_curr_exp
 from neurovpr.ir.connectivity import Connections
 from neurovpr.ir.connectors import ConvolutionConnector
 from neurovpr.ir.network import Network
-from neurovpr.runtime.backend import Capabilities
+from neurovpr.runtime.backend import Capabilities, ToleranceOverride
 
-from .translation import conv_padding_mode, delay_steps, lif_mapping, lif_problems
+from .translation import conv_padding_mode, lif_problems
 
 __all__ = ["NENGO_CAPABILITIES", "NENGO_LOIHI_CAPABILITIES", "network_problems", "delay_problems"]
 
-_CELLS = frozenset({"IF_curr_exp", "SpikeSourcePoisson", "SpikeSourceArray"})
-_CONNECTORS = frozenset(
-    {
-        "AllToAllConnector",
-        "OneToOneConnector",
-        "FixedProbabilityConnector",
-        "FixedNumberPreConnector",
-        "FromListConnector",
-        "ConvolutionConnector",
-    }
-)
-#: Conformance cases (tests/conformance/cases.py) the ``nengo`` backend cannot pass, with the reason.
+#: Conformance cases (neurovpr.conformance) the ``nengo`` backend cannot pass, with the reason.
 _NENGO_UNSUPPORTED = {
     "lif_rate_curr": (
         "Nengo's LIF places a spike inside its step (linear interpolation of the threshold crossing) and starts "
@@ -46,26 +39,34 @@ _NENGO_UNSUPPORTED = {
     ),
 }
 
+#: Looser conformance bounds of ``nengo-loihi``: NengoLoihi's emulator computes in Loihi's formats.
+_NENGO_LOIHI_TOLERANCES = {
+    "psp_curr": ToleranceOverride(
+        changes={"trace_rel": 0.02},
+        reason="NengoLoihi's emulator computes in Loihi's formats (12-bit decays, 8-bit weight "
+        "mantissas); measured 0.58 % of the PSP peak",
+    ),
+    "psp_curr_equal_tau": ToleranceOverride(
+        changes={"trace_rel": 0.03},
+        reason="NengoLoihi's 12-bit decays compound in the alpha-shaped PSP; measured 1.08 % of the peak",
+    ),
+}
+
 NENGO_CAPABILITIES = Capabilities(
-    cell_types=_CELLS,
-    connectors=_CONNECTORS,
-    synapses=frozenset({"StaticSynapse"}),
+    cell_types=CURRENT_LIF,
+    connectors=EVERY_CONNECTOR,
+    synapses=STATIC_SYNAPSE,
     learns=False,
     heterogeneous_delays=True,
-    hardware=frozenset(),
     recordables=frozenset({"v"}),
     unsupported=MappingProxyType(_NENGO_UNSUPPORTED),
 )
 
-NENGO_LOIHI_CAPABILITIES = Capabilities(
-    cell_types=_CELLS,
-    connectors=_CONNECTORS,
-    synapses=frozenset({"StaticSynapse"}),
-    learns=False,
-    heterogeneous_delays=True,
-    hardware=frozenset({"kapoho-bay"}),
-    recordables=frozenset({"v"}),
+NENGO_LOIHI_CAPABILITIES = dataclasses.replace(
+    NENGO_CAPABILITIES,
+    arithmetic=frozenset({"loihi1"}),
     unsupported=MappingProxyType({}),
+    tolerances=MappingProxyType(_NENGO_LOIHI_TOLERANCES),
 )
 
 
@@ -79,7 +80,7 @@ def network_problems(network: Network, *, loihi: bool) -> list[str]:
         problems.extend(lif_problems(pop, loihi=loihi))
     if problems:
         return problems
-    mappings = {name: lif_mapping(pop) for name, pop in network.populations.items() if isinstance(pop.cell_type, IF_curr_exp)}
+    mappings = {name: normalised_lif(pop) for name, pop in network.populations.items() if isinstance(pop.cell_type, IF_curr_exp)}
     receptors: dict[str, set[str]] = {}
     for proj in network.projections.values():
         receptors.setdefault(proj.post, set()).add(proj.receptor_type)
@@ -98,9 +99,9 @@ def network_problems(network: Network, *, loihi: bool) -> list[str]:
     if loihi:
         for post, kinds in receptors.items():
             m = mappings.get(post)
-            if m is not None and len(kinds) == 2 and not np.isclose(m.tau_syn_e_ms, m.tau_syn_i_ms):
+            if m is not None and len(kinds) == 2 and not np.isclose(m.tau_syn_e, m.tau_syn_i):
                 problems.append(
-                    f"tau_syn_E {m.tau_syn_e_ms:g} ms != tau_syn_I {m.tau_syn_i_ms:g} ms with both receptors used "
+                    f"tau_syn_E {m.tau_syn_e:g} ms != tau_syn_I {m.tau_syn_i:g} ms with both receptors used "
                     f"(population {post!r}; a Loihi compartment has one synaptic filter)"
                 )
     return problems

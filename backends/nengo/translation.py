@@ -1,21 +1,12 @@
 """Translation of neurovpr's IR into Nengo's normalised LIF terms (pure numpy, no Nengo import).
 
-neurovpr's ``IF_curr_exp`` (PyNN units: ms, mV, nA, nF)::
-
-    cm dv/dt = cm (v_rest - v) / tau_m + I_E - I_I + i_offset,   dI_X/dt = -I_X / tau_syn_X
-
 Nengo's ``LIF`` works on a normalised voltage ``u`` that rests at 0, fires above 1
 and resets to 0, driven by an input ``J`` held constant over each step (its
-zero-order-hold update ``u += (J - u) (1 - exp(-dt / tau_rc))``). The membrane
-equation is linear, so measuring ``v`` from ``v_reset`` turns a resting value
-``v_rest != v_reset`` into a constant input. The two agree exactly below threshold with
-
-- ``u = (v - v_reset) / (v_thresh - v_reset)``, ``tau_rc = tau_m``, ``tau_ref = tau_refrac``,
-- ``J = s (i_offset + kappa I) + (v_rest - v_reset) / (v_thresh - v_reset)`` with
-  ``s = R / (v_thresh - v_reset)``, ``R = tau_m / cm``, and ``kappa`` the factor that
-  makes a current decaying with ``tau_syn`` during the step act like a constant one
-  (``I`` is the synaptic current at the start of the step),
-  ``kappa = tau_syn (e_s - e_m) / ((tau_syn - tau_m) (1 - e_m))``, ``e_x = exp(-dt / tau_x)``.
+zero-order-hold update ``u += (J - u) (1 - exp(-dt / tau_rc))``). The normalised
+compartment of :mod:`neurovpr.backendkit.lif` (``u = (v - v_reset) / (v_thresh - v_reset)``,
+``J = s (i_offset + kappa I) + (v_rest - v_reset) / (v_thresh - v_reset)``, ``I`` the synaptic
+current at the start of the step) agrees with it exactly below threshold with
+``tau_rc = tau_m``, ``tau_ref = tau_refrac``.
 
 On the Nengo side ``s`` is the ensemble's ``gain`` (Nengo multiplies connections
 into ``.neurons`` by it), the constant part of ``J`` its ``bias``, and a connection's transform
@@ -42,76 +33,24 @@ Where Nengo differs from docs/semantics.md (and so the tolerances):
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
+from neurovpr.backendkit.lif import current_factor, shared_constant_problems
+from neurovpr.backendkit.params import per_neuron
 from neurovpr.ir.cells import IF_curr_exp
 from neurovpr.ir.connectors import ConvolutionConnector
 from neurovpr.ir.network import Population
 
 __all__ = [
-    "LIFMapping",
-    "lif_mapping",
     "lif_problems",
-    "current_factor",
     "transform_scale",
-    "delay_steps",
     "filter_delay",
     "conv_padding_mode",
 ]
 
-#: Relative tolerance for "equal" parameters (v_reset vs v_rest, uniform arrays).
+#: Relative tolerance for "equal" parameters (v_reset vs the initial voltage).
 _RTOL = 1e-9
-
-
-@dataclass(frozen=True, slots=True)
-class LIFMapping:
-    """One ``IF_curr_exp`` population in Nengo's normalised terms.
-
-    Attributes
-    ----------
-    tau_rc_s, tau_ref_s
-        Membrane time constant and refractory period in seconds.
-    tau_syn_e_ms, tau_syn_i_ms, tau_m_ms
-        The PyNN time constants (ms), kept for the synapse factors.
-    gain
-        ``s = R / (v_thresh - v_reset)`` per neuron (1/nA).
-    bias
-        ``s i_offset + (v_rest - v_reset) / (v_thresh - v_reset)`` per neuron.
-    v_zero, v_scale
-        ``v = v_zero + u * v_scale`` (mV) per neuron: ``v_zero = v_reset``,
-        ``v_scale = v_thresh - v_reset``.
-    u_init
-        Initial normalised voltage per neuron.
-    """
-
-    tau_rc_s: float
-    tau_ref_s: float
-    tau_m_ms: float
-    tau_syn_e_ms: float
-    tau_syn_i_ms: float
-    gain: np.ndarray
-    bias: np.ndarray
-    v_zero: np.ndarray
-    v_scale: np.ndarray
-    u_init: np.ndarray
-
-    def tau_syn_ms(self, receptor_type: str) -> float:
-        """The synaptic time constant (ms) of ``"excitatory"`` or ``"inhibitory"`` input."""
-        return self.tau_syn_e_ms if receptor_type == "excitatory" else self.tau_syn_i_ms
-
-
-def _per_neuron(value: Any, size: int) -> np.ndarray:
-    return np.broadcast_to(np.asarray(value, dtype=np.float64), (size,)).copy()
-
-
-def _uniform(value: Any) -> float | None:
-    arr = np.asarray(value, dtype=np.float64)
-    if arr.ndim == 0:
-        return float(arr)
-    return float(arr[0]) if np.allclose(arr, arr[0], rtol=_RTOL, atol=0.0) else None
 
 
 def lif_problems(pop: Population, *, loihi: bool) -> list[str]:
@@ -132,13 +71,10 @@ def lif_problems(pop: Population, *, loihi: bool) -> list[str]:
     cell = pop.cell_type
     if not isinstance(cell, IF_curr_exp):
         return []
-    problems: list[str] = []
-    for name in ("tau_m", "tau_refrac", "tau_syn_E", "tau_syn_I"):
-        if _uniform(getattr(cell, name)) is None:
-            problems.append(f"per-neuron {name} (population {pop.name!r}; one value per Nengo ensemble)")
+    problems = shared_constant_problems(pop, "one value per Nengo ensemble")
     if loihi:
-        reset = _per_neuron(cell.v_reset, pop.size)
-        init = _per_neuron(cell.v_rest if pop.v_init is None else pop.v_init, pop.size)
+        reset = per_neuron(cell.v_reset, pop.size)
+        init = per_neuron(cell.v_rest if pop.v_init is None else pop.v_init, pop.size)
         close = np.isclose(init, reset, rtol=_RTOL, atol=1e-12)
         if not np.all(close):
             bad = int(np.flatnonzero(~close)[0])
@@ -149,50 +85,6 @@ def lif_problems(pop: Population, *, loihi: bool) -> list[str]:
     return problems
 
 
-def lif_mapping(pop: Population) -> LIFMapping:
-    """Map an ``IF_curr_exp`` population (already checked by :func:`lif_problems`)."""
-    cell = pop.cell_type
-    assert isinstance(cell, IF_curr_exp)
-    n = pop.size
-    tau_m = _uniform(cell.tau_m)
-    tau_ref = _uniform(cell.tau_refrac)
-    tau_e = _uniform(cell.tau_syn_E)
-    tau_i = _uniform(cell.tau_syn_I)
-    assert tau_m is not None and tau_ref is not None and tau_e is not None and tau_i is not None
-    reset = _per_neuron(cell.v_reset, n)
-    rest = _per_neuron(cell.v_rest, n)
-    scale = _per_neuron(cell.v_thresh, n) - reset
-    resistance = _per_neuron(cell.tau_m, n) / _per_neuron(cell.cm, n)
-    gain = resistance / scale
-    bias = gain * _per_neuron(cell.i_offset, n) + (rest - reset) / scale
-    init = (_per_neuron(cell.v_rest if pop.v_init is None else pop.v_init, n) - reset) / scale
-    return LIFMapping(
-        tau_rc_s=tau_m / 1000.0,
-        tau_ref_s=tau_ref / 1000.0,
-        tau_m_ms=tau_m,
-        tau_syn_e_ms=tau_e,
-        tau_syn_i_ms=tau_i,
-        gain=gain,
-        bias=bias,
-        v_zero=reset,
-        v_scale=scale,
-        u_init=init,
-    )
-
-
-def current_factor(tau_syn: float, tau_m: float, dt: float) -> float:
-    """``kappa``: the constant current equivalent to a unit current decaying with ``tau_syn`` over one step.
-
-    Over a step of length ``dt`` the membrane responds to ``I exp(-t / tau_syn)`` as
-    to the constant ``kappa I`` (all times in the same unit).
-    """
-    e_s = math.exp(-dt / tau_syn)
-    e_m = math.exp(-dt / tau_m)
-    if math.isclose(tau_syn, tau_m, rel_tol=1e-9):
-        return (dt / tau_m) * e_m / (1.0 - e_m)
-    return tau_syn * (e_s - e_m) / ((tau_syn - tau_m) * (1.0 - e_m))
-
-
 def transform_scale(tau_syn: float, tau_m: float, dt: float) -> float:
     """Factor from a weight (nA) to a Nengo transform, given spikes of height ``1 / dt_s``.
 
@@ -200,11 +92,6 @@ def transform_scale(tau_syn: float, tau_m: float, dt: float) -> float:
     """
     e_s = math.exp(-dt / tau_syn)
     return current_factor(tau_syn, tau_m, dt) * (dt / 1000.0) / (1.0 - e_s)
-
-
-def delay_steps(delays_ms: np.ndarray, dt: float) -> np.ndarray:
-    """Delays rounded to whole steps (at least one)."""
-    return np.maximum(np.rint(np.asarray(delays_ms, dtype=np.float64) / dt).astype(np.int64), 1)
 
 
 def filter_delay(steps: int, *, from_source: bool) -> int:

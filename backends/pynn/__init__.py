@@ -13,13 +13,17 @@ Options of :func:`neurovpr.compile` for ``pynn:brian2``: ``codegen_target="numpy
 
 from __future__ import annotations
 
+from types import MappingProxyType
 from typing import Any
 
 from neurovpr.errors import ValidationError
+from neurovpr.hardware.check import HardwareTarget
 from neurovpr.ir.network import Network
 from neurovpr.runtime.backend import Backend, Capabilities
+from neurovpr.runtime.simulation import Simulation
 
-from .capabilities import CAPABILITIES_BRIAN2, CAPABILITIES_NEST, Simulator, feature_problems, type_reason
+from .build import quiet
+from .capabilities import CAPABILITIES_BRIAN2, CAPABILITIES_NEST, Simulator, feature_problems
 
 __all__ = ["PyNNBackend", "BACKEND", "BACKEND_BRIAN2"]
 
@@ -29,6 +33,7 @@ class PyNNBackend(Backend):
 
     version_of = "PyNN"
     extra = "pynn"
+    options = MappingProxyType({"codegen_target": "numpy"})
 
     def __init__(
         self, *, name: str, simulator: Simulator, description: str, requires: tuple[str, ...], capabilities: Capabilities
@@ -41,32 +46,22 @@ class PyNNBackend(Backend):
 
     def unavailable_reason(self) -> str | None:
         """``None`` when PyNN and the simulator import (NEST's banner silenced)."""
-        from .build import quiet
-
         with quiet():
             return super().unavailable_reason()
 
-    def unsupported_features(self, network: Network) -> list[str]:
-        """Every feature of ``network`` this backend cannot compile, with PyNN's reason."""
-        problems = []
-        for problem in super().unsupported_features(network):
-            kind = problem.split(" (", 1)[0].rsplit(" ", 1)[-1]
-            reason = type_reason(kind)
-            problems.append(f"{problem}: {reason}" if reason else problem)
-        if not problems:
-            problems.extend(feature_problems(network, self.simulator))
-        return problems
+    def network_problems(self, network: Network) -> list[str]:
+        """Parameter combinations the PyNN simulator cannot express, with PyNN's reason."""
+        return feature_problems(network, self.simulator)
 
-    def _compile(self, network: Network, *, dt: float, seed: int, hardware: Any, **options: Any) -> Any:
-        from .simulation import PyNNSimulation
-
-        target = options.pop("codegen_target", "numpy")
-        if options:
-            raise ValidationError(
-                f"Backend {self.name!r}: unknown option {next(iter(options))!r} (known: codegen_target)."
-            )
+    def _compile(
+        self, network: Network, *, dt: float, seed: int, hardware: HardwareTarget | None, **options: Any
+    ) -> Simulation:
+        target = options["codegen_target"]
         if target not in ("numpy", "cython"):
             raise ValidationError(f"Backend {self.name!r}: codegen_target must be 'numpy' or 'cython', got {target!r}.")
+        # PyNN and the simulator are imported when a network is compiled, not with the declaration
+        from .simulation import PyNNSimulation
+
         return PyNNSimulation(
             network, backend=self.name, simulator=self.simulator, dt=dt, seed=seed, codegen_target=target
         )

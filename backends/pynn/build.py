@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from neurovpr.errors import SimulationError, UnsupportedFeatureError
+from neurovpr.paths import cache_dir
 
 from .capabilities import Simulator
 from .translation import NetworkPlan, PartPlan, PopulationPlan, to_pynn_weights
@@ -56,8 +57,6 @@ def load_simulator(simulator: Simulator, *, codegen_target: str = "numpy") -> Mo
         module = importlib.import_module("pyNN.nest" if simulator == "nest" else "pyNN.brian2")
     if simulator == "brian2":
         import brian2
-
-        from neurovpr.paths import cache_dir
 
         brian2.prefs.codegen.target = codegen_target
         if codegen_target == "cython":
@@ -394,9 +393,3 @@ def release_neurons(built: Built, plan: NetworkPlan) -> None:
             pop = built.populations[pop_plan.name]
             pop.set(i_offset=pop_plan.parameters["i_offset"])
             pop.initialize(**pop_plan.initial_values)
-
-
-def round_to_grid(times: np.ndarray, dt: float) -> np.ndarray:
-    """Spike times rounded to the simulation grid."""
-    return np.rint(np.asarray(times, dtype=np.float64) / dt) * dt
-

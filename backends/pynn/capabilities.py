@@ -8,70 +8,41 @@ name instead of running something else.
 
 from __future__ import annotations
 
+import dataclasses
 from types import MappingProxyType
 from typing import Literal
 
 import numpy as np
 
+from neurovpr.backendkit.capabilities import EVERY_CONNECTOR
+from neurovpr.backendkit.pynn_names import CELL_TYPES, NOT_STANDARD_PYNN
 from neurovpr.ir.network import Network
 from neurovpr.ir.synapses import STDPMechanism
-from neurovpr.pynn_names import CELL_TYPES, NOT_STANDARD_PYNN
 from neurovpr.runtime.backend import Capabilities
 
-__all__ = ["CAPABILITIES_NEST", "CAPABILITIES_BRIAN2", "Simulator", "feature_problems", "type_reason"]
+__all__ = ["CAPABILITIES_NEST", "CAPABILITIES_BRIAN2", "Simulator", "feature_problems"]
 
 Simulator = Literal["nest", "brian2"]
 
-_CONNECTORS = frozenset(
-    {
-        "AllToAllConnector",
-        "OneToOneConnector",
-        "FixedProbabilityConnector",
-        "FixedNumberPreConnector",
-        "FromListConnector",
-        "ConvolutionConnector",
-    }
-)
-
-#: Conformance cases each simulator cannot pass, with the reason.
-_UNSUPPORTED_COMMON: dict[str, str] = {}
-
+#: Conformance cases PyNN on NEST cannot pass, with the reason.
 _UNSUPPORTED_NEST: dict[str, str] = {
-    **_UNSUPPORTED_COMMON,
     "stdp_same_instant": "NEST's stdp_synapse treats the whole delay d as dendritic and pairs t_pre with "
     "t_post + d; its amplitudes are rescaled so that every pair outside -2 d <= dt_pair <= 0 changes the weight "
     "as the IR does, but inside that window (dt_pair = 0 included) NEST potentiates (or, at -2 d, does nothing) "
     "where the IR depresses",
 }
 
-_UNSUPPORTED_BRIAN2: dict[str, str] = {
-    **_UNSUPPORTED_COMMON,
-}
-
-CAPABILITIES_NEST = Capabilities(
-    cell_types=frozenset(CELL_TYPES),
-    connectors=_CONNECTORS,
-    synapses=frozenset({"StaticSynapse", "STDPMechanism"}),
-    learns=True,
-    heterogeneous_delays=True,
-    recordables=frozenset({"v", "gsyn_exc", "gsyn_inh"}),
-    unsupported=MappingProxyType(_UNSUPPORTED_NEST),
-)
-
 CAPABILITIES_BRIAN2 = Capabilities(
     cell_types=frozenset(CELL_TYPES),
-    connectors=_CONNECTORS,
+    connectors=EVERY_CONNECTOR,
     synapses=frozenset({"StaticSynapse", "STDPMechanism"}),
     learns=True,
     heterogeneous_delays=True,
     recordables=frozenset({"v", "gsyn_exc", "gsyn_inh"}),
-    unsupported=MappingProxyType(_UNSUPPORTED_BRIAN2),
+    reasons=NOT_STANDARD_PYNN,
 )
 
-
-def type_reason(type_name: str) -> str:
-    """Why PyNN cannot run an IR type (empty when no reason is recorded)."""
-    return NOT_STANDARD_PYNN.get(type_name, "")
+CAPABILITIES_NEST = dataclasses.replace(CAPABILITIES_BRIAN2, unsupported=MappingProxyType(_UNSUPPORTED_NEST))
 
 
 def feature_problems(network: Network, simulator: Simulator) -> list[str]:

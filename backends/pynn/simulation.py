@@ -21,15 +21,14 @@ out updates whose trace is exactly zero, so this is an upper bound on its count)
 from __future__ import annotations
 
 import weakref
-import zlib
 from typing import Any
 
 import numpy as np
 
+from neurovpr.backendkit.pynn_names import RECORDABLES
+from neurovpr.backendkit.sources import SourceState
 from neurovpr.errors import SimulationError
-from neurovpr.ir.cells import SpikeSourceArray, SpikeSourcePoisson
 from neurovpr.ir.network import Network
-from neurovpr.pynn_names import RECORDABLES
 from neurovpr.runtime.simulation import Simulation
 
 from .build import (
@@ -43,7 +42,6 @@ from .build import (
     nest_order,
     quiet,
     release_neurons,
-    round_to_grid,
     set_nest_plasticity,
     time_offset,
 )
@@ -85,16 +83,9 @@ class PyNNSimulation(Simulation):
         self._simulator: Simulator = simulator
         self._plan = translate(self._network, dt=dt, seed=seed)
         self._sim = load_simulator(simulator, codegen_target=codegen_target)
-        self._inputs: dict[str, Any] = {}
-        self._rngs: dict[str, np.random.Generator] = {}
-        for name, pop in self._network.populations.items():
-            cell = pop.cell_type
-            if isinstance(cell, SpikeSourcePoisson):
-                self._inputs[name] = np.broadcast_to(np.asarray(cell.rate, dtype=np.float64), (pop.size,)).copy()
-                key = zlib.crc32(name.encode("utf-8"))
-                self._rngs[name] = np.random.default_rng(np.random.SeedSequence(entropy=seed, spawn_key=(key, 3)))
-            elif isinstance(cell, SpikeSourceArray):
-                self._inputs[name] = cell
+        self._sources = {
+            name: SourceState(pop, dt=dt, seed=seed) for name, pop in self._network.populations.items() if pop.is_source
+        }
         self._record_from: dict[tuple[str, str], int] = {}
         self._cache: dict[str, tuple[int, np.ndarray, np.ndarray]] = {}
         self._frozen: dict[str, dict[Any, Any]] | None = None
@@ -164,11 +155,11 @@ class PyNNSimulation(Simulation):
 
     def _set_input(self, population: str, value: Any) -> None:
         self._check_live()
-        self._inputs[population] = value
+        self._sources[population].set(value)
 
     def _run(self, n_steps: int) -> None:
         self._check_live()
-        for name in self._inputs:
+        for name in self._sources:
             self._feed_source(name, self._steps, n_steps)
         with quiet():
             if self._simulator == "nest" and self._first_run:
@@ -186,32 +177,18 @@ class PyNNSimulation(Simulation):
         self._cache.clear()
 
     def _source_spikes(self, name: str, s0: int, n_steps: int) -> tuple[np.ndarray, np.ndarray]:
-        """``(neuron, time)`` of the source's spikes in steps ``s0 .. s0 + n_steps - 1``."""
-        pop = self._network.populations[name]
-        value = self._inputs[name]
-        dt = self._dt
-        if isinstance(value, SpikeSourceArray):
-            times = round_to_grid(value.times, dt)
-            neurons = np.repeat(np.arange(pop.size), np.diff(value.offsets))
-            keep = (times >= s0 * dt - _EPS * dt) & (times < (s0 + n_steps) * dt - _EPS * dt)
-            return neurons[keep], times[keep]
-        cell = pop.cell_type
-        assert isinstance(cell, SpikeSourcePoisson)
-        rates = np.asarray(value, dtype=np.float64)
-        p = rates * dt / 1000.0
-        rng = self._rngs[name]
-        neurons, times = [], []
-        chunk = max(1, 2_000_000 // max(pop.size, 1))
+        """``(neuron, time)`` of the source's spikes in steps ``s0 .. s0 + n_steps - 1``.
+
+        Poisson spikes are drawn in chunks of steps (the same draws as one block) to bound memory.
+        """
+        source = self._sources[name]
+        chunk = max(1, 2_000_000 // max(self._network.populations[name].size, 1))
+        neurons, steps = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
         for a in range(s0, s0 + n_steps, chunk):
-            b = min(a + chunk, s0 + n_steps)
-            t = np.arange(a, b) * dt
-            active = (t >= cell.start - _EPS * dt) & (t < cell.start + cell.duration - _EPS * dt)
-            fire = rng.random((b - a, pop.size)) < p[None, :]
-            fire &= active[:, None]
-            step, neuron = np.nonzero(fire)
+            step, neuron = source.events(a, min(chunk, s0 + n_steps - a))
+            steps.append(step)
             neurons.append(neuron)
-            times.append((a + step) * dt)
-        return np.concatenate(neurons), np.concatenate(times)
+        return np.concatenate(neurons), np.concatenate(steps) * self._dt
 
     def _feed_source(self, name: str, s0: int, n_steps: int) -> None:
         neurons, times = self._source_spikes(name, s0, n_steps)

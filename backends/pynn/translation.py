@@ -25,12 +25,13 @@ from typing import Any, Literal
 
 import numpy as np
 
+from neurovpr.backendkit.pynn_names import CELL_PARAMETERS, CELL_TYPES, INITIAL_VALUES, TIMING_DEPENDENCES, WEIGHT_DEPENDENCES
+from neurovpr.backendkit.timing import delay_steps
 from neurovpr.errors import UnsupportedFeatureError
 from neurovpr.ir.connectivity import Connections, expand
 from neurovpr.ir.network import Network, Population, Projection
 from neurovpr.ir.node import field_values
 from neurovpr.ir.synapses import STDPMechanism
-from neurovpr.pynn_names import CELL_PARAMETERS, CELL_TYPES, INITIAL_VALUES, TIMING_DEPENDENCES, WEIGHT_DEPENDENCES
 
 __all__ = [
     "PopulationPlan",
@@ -41,7 +42,6 @@ __all__ = [
     "translate",
     "to_pynn_weights",
     "from_pynn_weights",
-    "delay_steps",
 ]
 
 #: How a part's PyNN weight derives from the IR weight: as is, negated, or its positive / negative part.
@@ -107,11 +107,6 @@ class NetworkPlan:
         """Longest delay of any connection (ms), at least two steps."""
         longest = max((float(p.delay.max()) for p in self.parts if p.delay.size), default=0.0)
         return max(longest, 2.0 * self.dt)
-
-
-def delay_steps(delay: np.ndarray, dt: float) -> np.ndarray:
-    """Delays rounded to whole steps (at least one), as the IR semantics prescribe."""
-    return np.maximum(np.rint(np.asarray(delay, dtype=np.float64) / dt), 1).astype(np.int64)
 
 
 def to_pynn_weights(mode: WeightMode, ir_weights: np.ndarray) -> np.ndarray:

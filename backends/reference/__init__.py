@@ -4,14 +4,22 @@ Exact integration of the linear subthreshold dynamics per step, event-driven CSR
 spike propagation with delays, Poisson and array sources, pair STDP and the
 Diehl & Cook rule with per-synapse traces, adaptive thresholds and the Ca2+
 adaptation current. The whole step loop runs in one compiled function.
-With ``hardware=`` it computes in a chip's number formats instead (:mod:`.fixed_point`).
+With ``hardware=`` it computes in the arithmetic of the chip's ``[formats]`` instead
+(:mod:`.fixed_point`).
+
+Option of ``nv.compile(..., backend="reference", ...)``: ``record_spikes``, the names of the
+populations whose spike trains are kept (default: all).
 """
 
 from __future__ import annotations
 
+from types import MappingProxyType
 from typing import Any
 
+from neurovpr.hardware.check import HardwareTarget
+from neurovpr.ir.network import Network
 from neurovpr.runtime.backend import Backend
+from neurovpr.runtime.simulation import Simulation
 
 from .capabilities import CAPABILITIES
 
@@ -25,8 +33,12 @@ class ReferenceBackend(Backend):
     version_of = "neurovpr"
     extra = ""
     capabilities = CAPABILITIES
+    options = MappingProxyType({"record_spikes": None})
 
-    def _compile(self, network: Any, *, dt: float, seed: int, hardware: Any, **options: Any) -> Any:
+    def _compile(
+        self, network: Network, *, dt: float, seed: int, hardware: HardwareTarget | None, **options: Any
+    ) -> Simulation:
+        # the simulator (numba and its compiled kernels) loads when a network is compiled, not with the declaration
         if hardware is not None:
             from .fixed_point import FixedPointSimulation
 

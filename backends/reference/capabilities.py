@@ -4,13 +4,19 @@ from __future__ import annotations
 
 from types import MappingProxyType
 
+from neurovpr.backendkit.capabilities import (
+    EVERY_CONNECTOR,
+    EVERY_RECORDABLE,
+    EVERY_SYNAPSE,
+    SPIKE_SOURCES,
+    SPIKING_NEURONS,
+)
 from neurovpr.runtime.backend import Capabilities
 
-#: Hwspec names whose number formats the backend emulates, and the arithmetic used for each
-#: (backends/reference/fixed_point.py; docs/number_formats.md): Loihi 1 as NengoLoihi's emulator
-#: computes it, Loihi 2 as Lava's bit-accurate process models do, SpiNNaker as sPyNNaker's LIF.
-EMULATED_HARDWARE = MappingProxyType({"kapoho-bay": "loihi1", "loihi2": "loihi2", "spinn5": "spinnaker"})
-#: State variables recorded in each emulated arithmetic.
+#: The chip arithmetics the backend emulates (a hwspec's ``[formats].arithmetic``), with the state
+#: variables recorded in each (backends/reference/fixed_point.py; docs/number_formats.md): Loihi 1
+#: as NengoLoihi's emulator computes it, Loihi 2 as Lava's bit-accurate process models do,
+#: SpiNNaker as sPyNNaker's LIF.
 RECORDABLE_ON_HARDWARE = MappingProxyType(
     {
         "loihi1": frozenset({"v"}),
@@ -20,30 +26,11 @@ RECORDABLE_ON_HARDWARE = MappingProxyType(
 )
 
 CAPABILITIES = Capabilities(
-    cell_types=frozenset(
-        {
-            "IF_curr_exp",
-            "IF_cond_exp",
-            "IF_cond_exp_adaptive",
-            "IF_curr_exp_ca2_adaptive",
-            "SpikeSourcePoisson",
-            "SpikeSourceArray",
-        }
-    ),
-    connectors=frozenset(
-        {
-            "AllToAllConnector",
-            "OneToOneConnector",
-            "FixedProbabilityConnector",
-            "FixedNumberPreConnector",
-            "FromListConnector",
-            "ConvolutionConnector",
-        }
-    ),
-    synapses=frozenset({"StaticSynapse", "STDPMechanism", "DiehlCookSTDP"}),
+    cell_types=SPIKING_NEURONS | SPIKE_SOURCES,
+    connectors=EVERY_CONNECTOR,
+    synapses=EVERY_SYNAPSE,
     learns=True,
     heterogeneous_delays=True,
-    hardware=frozenset(EMULATED_HARDWARE),
-    recordables=frozenset({"v", "isyn_exc", "isyn_inh", "gsyn_exc", "gsyn_inh", "theta", "i_ca2"}),
-    unsupported=MappingProxyType({}),
+    arithmetic=frozenset(RECORDABLE_ON_HARDWARE),
+    recordables=EVERY_RECORDABLE,
 )

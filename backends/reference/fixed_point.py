@@ -3,16 +3,17 @@
 ``nv.compile(net, backend="reference", hardware=NAME)`` runs :class:`FixedPointSimulation`:
 the float layout of :mod:`.translation` is quantised once (:mod:`.quantisation`), with every format parameter
 read from the hwspec's ``[formats]`` table, and the loops of :mod:`.kernels_fixed` run it
-with integers only (docs/number_formats.md has the formats, update orders and checks).
+with integers only (docs/number_formats.md has the formats, update orders and checks). The
+arithmetic is the one the hwspec's ``[formats].arithmetic`` names, whatever the hwspec's name.
 
-* Loihi (``kapoho-bay``, ``loihi2``): each core block of the hardware partitioner is
+* Loihi (``arithmetic = "loihi1"``, ``"loihi2"``): each core block of the compile's partition is
   discretised as NengoLoihi's ``discretize_block`` does, from the float compartment
   NengoLoihi builds for an ``IF_curr_exp`` population (threshold 1 at ``v_thresh``, 0 at
   ``v_reset``; gain ``R / (v_thresh - v_reset)``; a weight ``w`` acting as ``kappa w gain /
   decay_u``, ``kappa`` the constant-current equivalent of the exact integration over one
   step), keeping that pipeline's float32 storage and operation order so the integers equal
   NengoLoihi's.
-* SpiNNaker (``spinn5``): sPyNNaker's host conversion (s16.15 parameters, 16-bit weights
+* SpiNNaker (``arithmetic = "spinnaker"``): sPyNNaker's host conversion (s16.15 parameters, 16-bit weights
   under one ring-buffer shift per population and synapse type) and the constants its
   cores derive (``R``, ``exp_TC``, each synapse's ``decay`` and ``init``, refractory steps).
 """
@@ -24,13 +25,16 @@ from typing import Any
 
 import numpy as np
 
+from neurovpr.backendkit.params import per_neuron
 from neurovpr.errors import SimulationError, UnsupportedFeatureError, ValidationError
+from neurovpr.hardware.check import HardwareTarget
+from neurovpr.hardware.hwspec import HwSpec
 from neurovpr.ir.cells import IF_cond_exp, IF_curr_exp, IF_curr_exp_ca2_adaptive
 from neurovpr.ir.network import Network
 
 from . import kernels_fixed as kf
-from .capabilities import EMULATED_HARDWARE, RECORDABLE_ON_HARDWARE
-from .quantisation import COND_SHIFT, FixedLayout, per_neuron, quantise
+from .capabilities import RECORDABLE_ON_HARDWARE
+from .quantisation import COND_SHIFT, FixedLayout, quantise
 from .simulation import ReferenceSimulation
 
 __all__ = ["FixedPointSimulation", "emulation_problem"]
@@ -41,9 +45,9 @@ def _uniform(value: Any) -> bool:
     return arr.ndim == 0 or bool(np.all(arr == arr.flat[0]))
 
 
-def emulation_problem(network: Network, spec: Any, dt: float) -> Exception | None:
+def emulation_problem(network: Network, spec: HwSpec, dt: float) -> Exception | None:
     """The first reason ``network`` cannot run in ``spec``'s number formats, as the error to raise."""
-    variant = EMULATED_HARDWARE[spec.name]
+    variant = spec.formats.arithmetic
     step = spec.timing.time_step_ms
     if not math.isclose(dt, step, rel_tol=1e-9):
         return ValidationError(
@@ -94,16 +98,18 @@ class FixedPointSimulation(ReferenceSimulation):
     network, dt, seed, record_spikes
         As :class:`.simulation.ReferenceSimulation`.
     hardware
-        The loaded hwspec (checked to fit by ``nv.compile``).
+        The hardware target ``nv.compile`` made (it fits; its partition gives the Loihi core blocks).
     """
 
-    def __init__(self, network: Network, *, dt: float, seed: int, hardware: Any, record_spikes: Any = None) -> None:
-        problem = emulation_problem(network, hardware, dt)
+    def __init__(
+        self, network: Network, *, dt: float, seed: int, hardware: HardwareTarget, record_spikes: Any = None
+    ) -> None:
+        problem = emulation_problem(network, hardware.spec, dt)
         if problem is not None:
             raise problem
-        self._spec = hardware
+        self._spec = hardware.spec
         self._fx: FixedLayout | None = None
-        super().__init__(network, dt=dt, seed=seed, record_spikes=record_spikes)
+        super().__init__(network, dt=dt, seed=seed, hardware=hardware, record_spikes=record_spikes)
 
     @property
     def quantised(self) -> FixedLayout:
@@ -114,7 +120,7 @@ class FixedPointSimulation(ReferenceSimulation):
     def _reset_state(self) -> None:
         super()._reset_state()
         if self._fx is None:
-            self._fx = quantise(self._network, self._spec, self._lay, dt=self._dt, seed=self._seed)
+            self._fx = self._quantise()
         fx, n = self._fx, self._lay.n
         self._acc = np.zeros((self._lay.ring, max(1, fx.n_gp)), dtype=np.int64)
         self._refr_i = np.zeros(n, dtype=np.int64)
@@ -127,7 +133,7 @@ class FixedPointSimulation(ReferenceSimulation):
             self._u_i, self._q_i = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
 
     def _set_recording(self, population: str, variable: str, neurons: np.ndarray) -> None:
-        allowed = RECORDABLE_ON_HARDWARE[EMULATED_HARDWARE[self._spec.name]]
+        allowed = RECORDABLE_ON_HARDWARE[self._spec.formats.arithmetic]
         if variable not in allowed:
             raise SimulationError(
                 f"record: {variable!r} is not recorded in the {self._spec.name} formats (recordable: "
@@ -137,7 +143,11 @@ class FixedPointSimulation(ReferenceSimulation):
 
     def _set_weights(self, projection: str, values: np.ndarray) -> None:
         super()._set_weights(projection, values)
-        self._fx = quantise(self._network, self._spec, self._lay, dt=self._dt, seed=self._seed)
+        self._fx = self._quantise()
+
+    def _quantise(self) -> FixedLayout:
+        assert self._hardware is not None
+        return quantise(self._network, self._spec, self._lay, dt=self._dt, partition=self._hardware.partition)
 
     def _run(self, n_steps: int) -> None:
         fx, lay, fmt = self._fx, self._lay, self._spec.formats

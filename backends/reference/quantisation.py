@@ -15,16 +15,16 @@ from typing import Any
 
 import numpy as np
 
+from neurovpr.backendkit.params import per_neuron
 from neurovpr.errors import UnsupportedFeatureError, ValidationError
-from neurovpr.hardware import partition
+from neurovpr.hardware.cores import Partition
 from neurovpr.ir.cells import IF_cond_exp, IF_curr_exp_ca2_adaptive
 from neurovpr.ir.connectors import ConvolutionConnector
 from neurovpr.ir.network import Network
 
 from . import kernels_fixed as kf
-from .capabilities import EMULATED_HARDWARE
 
-__all__ = ["FixedLayout", "quantise", "decay_magnitude", "per_neuron", "COND_SHIFT"]
+__all__ = ["FixedLayout", "quantise", "decay_magnitude", "COND_SHIFT"]
 
 
 #: NengoLoihi's empirical mean loss of one truncating decay step (discretize.py decay_magnitude).
@@ -71,11 +71,6 @@ def decay_magnitude(decay: np.ndarray, x0: float, bits: int, offset: int = 0) ->
     principal = (1 - r ** (n + 1)) / (1 - r)
     loss = _DECAY_LOSS / ((1 - r) * x0) * (n + 1 - (1 - r ** (n + 1)) / (1 - r))
     return principal - loss
-
-
-def per_neuron(value: Any, n: int) -> np.ndarray:
-    """A cell parameter (scalar or per neuron) as a float64 array of ``n`` values."""
-    return np.broadcast_to(np.asarray(value, dtype=np.float64), (n,)).copy()
 
 
 def _kappa_scale(tau_syn: float, tau_m: float, dt: float) -> float:
@@ -179,7 +174,7 @@ def _discretize_weights(fmt: Any, w: np.ndarray, w_exp2: int) -> tuple[np.ndarra
     return mant << s, final
 
 
-def _quantise_loihi(network: Network, spec: Any, lay: Any, dt: float, seed: int, variant: str) -> FixedLayout:
+def _quantise_loihi(network: Network, spec: Any, lay: Any, dt: float, partition: Partition, variant: str) -> FixedLayout:
     fmt = spec.formats
     n = lay.n
     dt_s = dt / 1000.0
@@ -203,7 +198,7 @@ def _quantise_loihi(network: Network, spec: Any, lay: Any, dt: float, seed: int,
     s_exp = np.zeros(lay.s_w.size, dtype=np.int64)
     s_mant = np.zeros(lay.s_w.size, dtype=np.int64)
     blocks: list[dict[str, Any]] = []
-    cores = partition(network, spec, seed=seed).cores
+    cores = partition.cores
     for pop in network.populations.values():
         if pop.is_source:
             continue
@@ -361,7 +356,7 @@ def _quantise_spinnaker(network: Network, spec: Any, lay: Any, dt: float) -> Fix
                        gp_exp=np.zeros(0, np.int64), n_gp=2 * n, v_unit=v_unit, blocks=blocks, weights=weights)  # fmt: skip
 
 
-def quantise(network: Network, spec: Any, lay: Any, *, dt: float, seed: int) -> FixedLayout:
+def quantise(network: Network, spec: Any, lay: Any, *, dt: float, partition: Partition) -> FixedLayout:
     """Quantise the float layout ``lay`` of ``network`` into ``spec``'s formats.
 
     Parameters
@@ -369,19 +364,21 @@ def quantise(network: Network, spec: Any, lay: Any, *, dt: float, seed: int) -> 
     network, lay
         The network and its float layout (:func:`.translation.build_layout`).
     spec
-        A loaded hwspec whose name is in ``EMULATED_HARDWARE``.
-    dt, seed
-        Time step (ms) and compile seed (for the core partition of random connectors).
+        A loaded hwspec whose ``[formats].arithmetic`` the backend emulates.
+    dt
+        Time step (ms).
+    partition
+        The compile's partition of ``network`` on ``spec`` (its core blocks are discretised one by one).
 
     Returns
     -------
     FixedLayout
         The integer network.
     """
-    variant = EMULATED_HARDWARE[spec.name]
+    variant = spec.formats.arithmetic
     if variant == "spinnaker":
         return _quantise_spinnaker(network, spec, lay, dt)
-    return _quantise_loihi(network, spec, lay, dt, seed, variant)
+    return _quantise_loihi(network, spec, lay, dt, partition, variant)
 
 
 # -- simulation -----------------------------------------------------------------------

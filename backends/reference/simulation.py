@@ -4,14 +4,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from neurovpr.backendkit.params import per_neuron
+from neurovpr.backendkit.sources import array_events
+from neurovpr.backendkit.timing import window_steps
 from neurovpr.errors import ValidationError
 from neurovpr.ir.cells import IF_cond_exp_adaptive, SpikeSourceArray, SpikeSourcePoisson
 from neurovpr.ir.network import Network
 from neurovpr.runtime.simulation import Simulation
+
+if TYPE_CHECKING:
+    from neurovpr.hardware.check import HardwareTarget
 
 from . import kernels
 from .convolution import CV_WOFF
@@ -29,7 +35,7 @@ class ReferenceSimulation(Simulation):
     network, dt, seed
         See :func:`neurovpr.compile`.
     hardware
-        Unused here: with a hwspec the backend builds :class:`.fixed_point.FixedPointSimulation`.
+        The hardware target (only :class:`.fixed_point.FixedPointSimulation` computes in its formats).
     record_spikes
         Names of the populations whose spike trains are kept (default: all). Spike
         counts are always kept; leaving trains out saves memory in long training runs.
@@ -41,10 +47,10 @@ class ReferenceSimulation(Simulation):
         *,
         dt: float,
         seed: int,
-        hardware: Any = None,
+        hardware: HardwareTarget | None = None,
         record_spikes: Iterable[str] | None = None,
     ) -> None:
-        super().__init__(network, backend="reference", dt=dt, seed=seed)
+        super().__init__(network, backend="reference", dt=dt, seed=seed, hardware=hardware)
         lay = self._lay = build_layout(network, dt, seed)
         n = lay.n
         self._x_pre = np.zeros(int(np.diff(lay.post_ptr).max(initial=0)))
@@ -75,10 +81,10 @@ class ReferenceSimulation(Simulation):
             if isinstance(cell, SpikeSourcePoisson):
                 sl = slice(pos, pos + pop.size)
                 self._pois_pos[name] = sl
-                self._pois_rate[sl] = cell.rate
-                self._pois_start[sl] = math.ceil(cell.start / dt - 1e-9)
-                end = cell.start + cell.duration
-                self._pois_end[sl] = kernels.NEVER if math.isinf(end) else math.ceil(end / dt - 1e-9)
+                self._pois_rate[sl] = per_neuron(cell.rate, pop.size)
+                first, end = window_steps(cell.start, cell.duration, dt)
+                self._pois_start[sl] = first
+                self._pois_end[sl] = kernels.NEVER if math.isinf(end) else int(end)
                 pos += pop.size
             elif isinstance(cell, SpikeSourceArray):
                 self._arrays[name] = cell
@@ -160,10 +166,9 @@ class ReferenceSimulation(Simulation):
     def _build_array_events(self) -> None:
         steps, neurons = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
         for name, src in self._arrays.items():
-            lo = self._lay.offsets[name][0]
-            counts = np.diff(src.offsets)
-            steps.append(np.rint(src.times / self._dt).astype(np.int64))
-            neurons.append(np.repeat(np.arange(src.n_neurons, dtype=np.int64) + lo, counts))
+            stamps, idx = array_events(src, self._dt)
+            steps.append(stamps)
+            neurons.append(idx + self._lay.offsets[name][0])
         st, ne = np.concatenate(steps), np.concatenate(neurons)
         order = np.lexsort((ne, st))
         self._arr_step, self._arr_neuron = st[order], ne[order]
@@ -250,15 +255,12 @@ class ReferenceSimulation(Simulation):
         pass  # read by _run
 
     def _set_recording(self, population: str, variable: str, neurons: np.ndarray) -> None:
-        lo = self._lay.offsets[population][0]
-        code = VAR_CODES[variable]
         keys = [(population, variable, int(i)) for i in neurons]
         kept = [k for k in self._var_keys if (k[0], k[1]) != (population, variable)]
         self._var_keys = kept + keys  # type: ignore[operator]
         self._var_idx = np.array([self._lay.offsets[k[0]][0] + k[2] for k in self._var_keys], dtype=np.int64)
         self._var_code = np.array([VAR_CODES[k[1]] for k in self._var_keys], dtype=np.int64)
         self._recorders = {k: self._recorders.get(k, []) for k in self._var_keys}  # type: ignore[misc]
-        del lo, code
 
     def _spike_counts(self, population: str) -> np.ndarray:
         lo, hi = self._lay.offsets[population]

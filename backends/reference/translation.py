@@ -18,6 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from neurovpr.backendkit.params import per_neuron
+from neurovpr.backendkit.timing import delay_steps
 from neurovpr.ir.cells import (
     IF_cond_exp,
     IF_cond_exp_adaptive,
@@ -94,10 +96,6 @@ MAX_PRE_TABLE = 1 << 17
 VAR_CODES = {"v": 0, "isyn_exc": 1, "gsyn_exc": 1, "isyn_inh": 2, "gsyn_inh": 2, "theta": 3, "i_ca2": 4}
 
 
-def _col(value: object, n: int) -> np.ndarray:
-    return np.broadcast_to(np.asarray(value, dtype=np.float64), (n,)).copy()
-
-
 def _psc_propagator(dt: float, tau_s: np.ndarray, tau_m: np.ndarray, cm: np.ndarray) -> np.ndarray:
     """Exact effect on v after one step of an exponentially decaying current of 1 nA."""
     a = 1.0 / tau_m - 1.0 / tau_s
@@ -115,11 +113,11 @@ def neuron_table(cell: object, n: int, dt: float, v_init: object) -> tuple[int, 
     if isinstance(cell, (SpikeSourcePoisson, SpikeSourceArray)):
         return (KIND_POISSON if isinstance(cell, SpikeSourcePoisson) else KIND_ARRAY), table
     assert isinstance(cell, (IF_curr_exp, IF_cond_exp, IF_cond_exp_adaptive, IF_curr_exp_ca2_adaptive))
-    g = {name: _col(getattr(cell, name), n) for name in ("cm", "tau_m", "tau_refrac", "tau_syn_E", "tau_syn_I")}
-    table[:, C_V_REST] = _col(cell.v_rest, n)
-    table[:, C_V_RESET] = _col(cell.v_reset, n)
-    table[:, C_V_THRESH] = _col(cell.v_thresh, n)
-    table[:, C_I_OFFSET] = _col(cell.i_offset, n)
+    g = {name: per_neuron(getattr(cell, name), n) for name in ("cm", "tau_m", "tau_refrac", "tau_syn_E", "tau_syn_I")}
+    table[:, C_V_REST] = per_neuron(cell.v_rest, n)
+    table[:, C_V_RESET] = per_neuron(cell.v_reset, n)
+    table[:, C_V_THRESH] = per_neuron(cell.v_thresh, n)
+    table[:, C_I_OFFSET] = per_neuron(cell.i_offset, n)
     table[:, C_P22] = np.exp(-dt / g["tau_m"])
     table[:, C_P20] = g["tau_m"] / g["cm"] * -np.expm1(-dt / g["tau_m"])
     table[:, C_P11E] = np.exp(-dt / g["tau_syn_E"])
@@ -133,22 +131,22 @@ def neuron_table(cell: object, n: int, dt: float, v_init: object) -> tuple[int, 
     table[:, C_REFRAC] = np.rint(g["tau_refrac"] / dt)
     table[:, C_THETA_DECAY] = 1.0
     table[:, C_P11CA] = 1.0
-    table[:, C_V_INIT] = table[:, C_V_REST] if v_init is None else _col(v_init, n)
+    table[:, C_V_INIT] = table[:, C_V_REST] if v_init is None else per_neuron(v_init, n)
     kind = KIND_CURR
     if isinstance(cell, (IF_cond_exp, IF_cond_exp_adaptive)):
         kind = KIND_COND
-        table[:, C_E_REV_E] = _col(cell.e_rev_E, n)
-        table[:, C_E_REV_I] = _col(cell.e_rev_I, n)
+        table[:, C_E_REV_E] = per_neuron(cell.e_rev_E, n)
+        table[:, C_E_REV_I] = per_neuron(cell.e_rev_I, n)
     if isinstance(cell, IF_cond_exp_adaptive):
-        table[:, C_THETA_PLUS] = _col(cell.theta_plus, n)
-        table[:, C_THETA_DECAY] = np.exp(-dt / _col(cell.tau_theta, n))
-        table[:, C_LOCK] = np.maximum(np.rint(_col(cell.tau_lockout, n) / dt) - table[:, C_REFRAC], 0.0)
+        table[:, C_THETA_PLUS] = per_neuron(cell.theta_plus, n)
+        table[:, C_THETA_DECAY] = np.exp(-dt / per_neuron(cell.tau_theta, n))
+        table[:, C_LOCK] = np.maximum(np.rint(per_neuron(cell.tau_lockout, n) / dt) - table[:, C_REFRAC], 0.0)
     if isinstance(cell, IF_curr_exp_ca2_adaptive):
-        tau_ca = _col(cell.tau_ca2, n)
+        tau_ca = per_neuron(cell.tau_ca2, n)
         table[:, C_P11CA] = np.exp(-dt / tau_ca)
         table[:, C_P21CA] = _psc_propagator(dt, tau_ca, g["tau_m"], g["cm"])
-        table[:, C_I_ALPHA] = _col(cell.i_alpha, n)
-        table[:, C_I_CA_INIT] = _col(cell.i_ca2, n)
+        table[:, C_I_ALPHA] = per_neuron(cell.i_alpha, n)
+        table[:, C_I_CA_INIT] = per_neuron(cell.i_ca2, n)
     return kind, table
 
 
@@ -275,7 +273,7 @@ def build_layout(network: Network, dt: float, seed: int) -> Layout:
     for proj in network.projections.values():
         conns = expand(network, proj, dt=dt, seed=seed)
         pre0, post0 = offsets[proj.pre][0], offsets[proj.post][0]
-        steps = np.maximum(1, np.rint(conns.delay / dt)).astype(np.int64)
+        steps = delay_steps(conns.delay, dt)
         if not proj.plastic and isinstance(proj.connector, ConvolutionConnector):
             spec = conv_spec(proj.name, proj.connector, conns.pre, conns.post, conns.weight, steps, (pre0, post0),
                              proj.receptor_type == "inhibitory")  # fmt: skip

@@ -14,13 +14,17 @@ sPyNNaker may use.
 
 from __future__ import annotations
 
+from types import MappingProxyType
 from typing import Any
 
-from neurovpr.errors import ValidationError
+from neurovpr.hardware.check import HardwareTarget
 from neurovpr.ir.network import Network
 from neurovpr.runtime.backend import Backend
+from neurovpr.runtime.simulation import Simulation
 
-from .capabilities import CAPABILITIES, REASONS
+from .capabilities import CAPABILITIES
+from .mapping import silenced
+from .simulation import SpiNNakerSimulation
 
 __all__ = ["SpiNNakerBackend", "BACKEND"]
 
@@ -34,30 +38,17 @@ class SpiNNakerBackend(Backend):
     version_of = "sPyNNaker"
     extra = "spinnaker"
     capabilities = CAPABILITIES
+    options = MappingProxyType({"n_boards": 1})
 
     def unavailable_reason(self) -> str | None:
         """``None`` when sPyNNaker imports (its import output silenced)."""
-        from .mapping import _silenced
-
-        with _silenced():
+        with silenced():
             return super().unavailable_reason()
 
-    def unsupported_features(self, network: Network) -> list[str]:
-        """Every feature of ``network`` sPyNNaker cannot map, with the reason."""
-        problems = []
-        for problem in super().unsupported_features(network):
-            kind = problem.split(" (", 1)[0].rsplit(" ", 1)[-1]
-            reason = REASONS.get(kind)
-            problems.append(f"{problem}: {reason}" if reason else problem)
-        return problems
-
-    def _compile(self, network: Network, *, dt: float, seed: int, hardware: Any, **options: Any) -> Any:
-        from .simulation import SpiNNakerSimulation
-
-        n_boards = options.pop("n_boards", 1)
-        if options:
-            raise ValidationError(f"Backend 'spinnaker': unknown option {next(iter(options))!r} (known: n_boards).")
-        return SpiNNakerSimulation(network, dt=dt, seed=seed, n_boards=n_boards)
+    def _compile(
+        self, network: Network, *, dt: float, seed: int, hardware: HardwareTarget | None, **options: Any
+    ) -> Simulation:
+        return SpiNNakerSimulation(network, dt=dt, seed=seed, n_boards=options["n_boards"])
 
 
 BACKEND = SpiNNakerBackend()

@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from types import MappingProxyType
 
-from neurovpr.pynn_names import SPYNNAKER_CELL_TYPES
+from neurovpr.backendkit.capabilities import EVERY_CONNECTOR
+from neurovpr.backendkit.pynn_names import SPYNNAKER_CELL_TYPES
 from neurovpr.runtime.backend import Capabilities
 
 __all__ = ["CAPABILITIES", "RUN_REFUSAL", "REASONS"]
@@ -26,21 +27,12 @@ REASONS = MappingProxyType(
 
 CAPABILITIES = Capabilities(
     cell_types=frozenset(SPYNNAKER_CELL_TYPES),
-    connectors=frozenset(
-        {
-            "AllToAllConnector",
-            "OneToOneConnector",
-            "FixedProbabilityConnector",
-            "FixedNumberPreConnector",
-            "FromListConnector",
-            "ConvolutionConnector",
-        }
-    ),
+    connectors=EVERY_CONNECTOR,
     synapses=frozenset({"StaticSynapse", "STDPMechanism"}),
     learns=True,
     runs=False,
     run_refusal=RUN_REFUSAL,
     heterogeneous_delays=True,
     recordables=frozenset(),
-    unsupported=MappingProxyType({}),
+    reasons=REASONS,
 )

@@ -36,29 +36,14 @@ from typing import Any
 from neurovpr.errors import NeurovprError, UnsupportedFeatureError, ValidationError
 from neurovpr.hardware.spinnaker import spynnaker_step_us
 from neurovpr.ir.network import Network
+from neurovpr.runtime.backend import capability_problems
 
-from .capabilities import CAPABILITIES, REASONS
+from .capabilities import CAPABILITIES
 from .translation import build_network
 
-__all__ = ["map_network", "unsupported_features"]
+__all__ = ["map_network", "silenced"]
 
 _LOGGERS = ("spinn_utilities", "spinn_machine", "spinnman", "pacman", "spinn_front_end_common", "spynnaker", "pyNN")
-
-
-def unsupported_features(network: Network) -> list[str]:
-    """Every feature of ``network`` sPyNNaker cannot map, each with the reason."""
-    problems = []
-    for pop in network.populations.values():
-        kind = type(pop.cell_type).__name__
-        if kind not in CAPABILITIES.cell_types:
-            problems.append(f"cell type {kind} (population {pop.name!r}): {REASONS.get(kind, 'not a sPyNNaker model')}")
-    for proj in network.projections.values():
-        for attr, allowed in (("connector", CAPABILITIES.connectors), ("synapse", CAPABILITIES.synapses)):
-            kind = type(getattr(proj, attr)).__name__
-            if kind not in allowed:
-                reason = REASONS.get(kind, "not a sPyNNaker type")
-                problems.append(f"{attr} {kind} (projection {proj.name!r}): {reason}")
-    return problems
 
 
 @contextlib.contextmanager
@@ -85,7 +70,7 @@ def _private_config() -> Iterator[str]:
 
 
 @contextlib.contextmanager
-def _silenced() -> Iterator[None]:
+def silenced() -> Iterator[None]:
     """Keep sPyNNaker's progress bars, log lines and warnings off the terminal."""
     levels = {name: logging.getLogger(name).level for name in _LOGGERS}
     for name in _LOGGERS:
@@ -101,7 +86,7 @@ def _silenced() -> Iterator[None]:
 
 
 def _import() -> tuple[ModuleType, Any]:
-    with _silenced():
+    with silenced():
         sim = importlib.import_module("spynnaker.pyNN")
         view = importlib.import_module("spynnaker.pyNN.data").SpynnakerDataView
     return sim, view
@@ -207,13 +192,13 @@ def map_network(network: Network, *, dt: float, seed: int, n_boards: int = 1) ->
         raise ValidationError(f"map_network: dt must be a positive number of ms, got {dt!r}.")
     if isinstance(n_boards, bool) or not isinstance(n_boards, numbers.Integral) or n_boards < 1:
         raise ValidationError(f"map_network: n_boards must be an integer >= 1, got {n_boards!r}.")
-    problems = unsupported_features(network)
+    problems = capability_problems(CAPABILITIES, network)
     if problems:
         more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
         raise UnsupportedFeatureError(f"Backend 'spinnaker' cannot map {problems[0]}{more}.")
     sim, view = _import()
     step_us = spynnaker_step_us(dt)
-    with _private_config(), _silenced():
+    with _private_config(), silenced():
         try:
             sim.setup(timestep=float(dt), min_delay=step_us / 1000.0, n_boards_required=int(n_boards))
             if view.get_simulation_time_step_us() != step_us:

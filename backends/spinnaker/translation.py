@@ -28,19 +28,19 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.ir.cells import SpikeSourceArray, SpikeSourcePoisson
-from neurovpr.ir.connectivity import expand
-from neurovpr.ir.connectors import AllToAllConnector, OneToOneConnector
-from neurovpr.ir.network import Network, Population, Projection
-from neurovpr.ir.node import field_values
-from neurovpr.ir.synapses import STDPMechanism
-from neurovpr.pynn_names import (
+from neurovpr.backendkit.pynn_names import (
     CELL_PARAMETERS,
     INITIAL_VALUES,
     SPYNNAKER_CELL_TYPES,
     TIMING_DEPENDENCES,
     WEIGHT_DEPENDENCES,
 )
+from neurovpr.ir.cells import SpikeSourceArray, SpikeSourcePoisson
+from neurovpr.ir.connectivity import expand
+from neurovpr.ir.connectors import AllToAllConnector, OneToOneConnector
+from neurovpr.ir.network import Network, Population, Projection
+from neurovpr.ir.node import field_values
+from neurovpr.ir.synapses import STDPMechanism
 
 __all__ = [
     "build_population",

@@ -1,4 +1,10 @@
-"""Does a network fit a hardware target? The report behind ``neurovpr check``."""
+"""Does a network fit a hardware target? The report behind ``neurovpr check``, and the one route to hardware.
+
+``nv.compile(..., hardware=NAME)`` calls :func:`hardware_target`: the network is partitioned
+once, with the compile's time step and seed, and that one partition gives the verdict
+(:class:`CheckReport`), the core blocks the emulated arithmetic quantises per core, and the
+chips and cores the energy estimate counts (:class:`HardwareTarget`).
+"""
 
 from __future__ import annotations
 
@@ -13,7 +19,7 @@ from neurovpr.ir.network import Network
 from .hwspec import HwSpec, load_hwspec
 from .partition import Partition, partition
 
-__all__ = ["CheckReport", "check_network", "hwspec_for_compile"]
+__all__ = ["CheckReport", "HardwareTarget", "check_network", "hardware_target"]
 
 #: Column titles of the per-population table, by resource.
 _RESOURCES = {
@@ -160,8 +166,40 @@ def check_network(network: Network, hardware: str | HwSpec, *, seed: int = 0, dt
                        sizes={name: pop.size for name, pop in network.populations.items()})
 
 
-def hwspec_for_compile(network: Network, name: str) -> HwSpec:
-    """The hwspec ``name`` if ``network`` fits it; used by ``nv.compile(..., hardware=name)``.
+@dataclass(frozen=True, slots=True, kw_only=True)
+class HardwareTarget:
+    """A network placed on a hardware target, as ``nv.compile(..., hardware=...)`` made it.
+
+    Attributes
+    ----------
+    spec : HwSpec
+        The hwspec as loaded (its own ``[timing].time_step_ms``).
+    report : CheckReport
+        The fit of the network, partitioned at ``dt`` with ``seed``.
+    dt : float
+        The compile's time step (ms).
+    seed : int
+        The compile's seed (random connectors without their own seed).
+    """
+
+    spec: HwSpec
+    report: CheckReport
+    dt: float
+    seed: int
+
+    @property
+    def name(self) -> str:
+        """The hwspec's name."""
+        return self.spec.name
+
+    @property
+    def partition(self) -> Partition:
+        """The one partition: the verdict's, the emulation's and the energy estimate's."""
+        return self.report.partition
+
+
+def hardware_target(network: Network, hardware: str | HwSpec, *, dt: float, seed: int) -> HardwareTarget:
+    """Partition ``network`` once onto ``hardware`` at time step ``dt`` with ``seed``; it must fit.
 
     Raises
     ------
@@ -169,13 +207,13 @@ def hwspec_for_compile(network: Network, name: str) -> HwSpec:
         If the hwspec is unknown or malformed, or the network does not fit (one sentence
         with the number of broken limits and the first of them).
     """
-    spec = load_hwspec(name)
-    report = check_network(network, spec)
+    spec = load_hwspec(hardware)
+    report = check_network(network, spec, seed=seed, dt=dt)
     if not report.fits:
         broken = report.partition.violations
         first = broken[0].message.rstrip(".")
         raise ValidationError(
-            f"Network {network.name!r} does not fit {spec.name} ({len(broken)} limit(s) broken; first: {first}; "
-            f"see `neurovpr check`)."
+            f"Network {network.name!r} does not fit {spec.name} at dt={dt:g} ms ({len(broken)} limit(s) broken; "
+            f"first: {first}; see `neurovpr check`)."
         )
-    return spec
+    return HardwareTarget(spec=spec, report=report, dt=float(dt), seed=int(seed))

@@ -44,6 +44,7 @@ from neurovpr.ir.network import Network
 
 from .hwspec import HwSpec, load_hwspec
 from .partition import Partition
+from .partition import partition as make_partition
 
 __all__ = [
     "ACTIVITY_FILE",
@@ -267,8 +268,6 @@ def estimate_energy(
     seed
         Seed of random connectors when the partition is computed here.
     """
-    from .partition import partition as make_partition
-
     spec = hardware if isinstance(hardware, HwSpec) else load_hwspec(hardware)
     energy = spec.energy
     if network is not None and partition is None:

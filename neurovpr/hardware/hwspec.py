@@ -8,16 +8,17 @@ a comment; this module only reads and checks them. Nothing read from a file is e
 The file is split into tables, each loaded into a frozen dataclass:
 
 ``[hardware]``
-    name, title, partitioner (``"loihi"`` or ``"spinnaker"``: whose rules split
-    populations onto cores), toolchain.
+    name, title, partitioner (the architecture whose rules split populations onto
+    cores: ``"loihi"``, ``"spinnaker"`` or any declared in the ``neurovpr.architectures``
+    entry point, see :mod:`.architectures`), toolchain.
 ``[chip]``, ``[core]``
     chip and core counts and per-core limits.
-``[synapse_encoding]``
-    synapse memory layout (required by the ``loihi`` partitioner).
-``[spinnaker]``
-    sPyNNaker's sizing constants and the board geometry (required by ``spinnaker``).
 ``[formats]``, ``[timing]``, ``[energy]``, ``[features]``
-    number formats, time step and delays, energy per operation, hosted features.
+    number formats (with ``arithmetic``, the integer arithmetic a backend emulates them
+    in), time step and delays, energy per operation, hosted features.
+the architecture's own table
+    named by the architecture (``[synapse_encoding]`` for ``loihi``, ``[spinnaker]`` for
+    ``spinnaker``) and loaded into its rules dataclass, ``HwSpec.rules``.
 """
 
 from __future__ import annotations
@@ -32,30 +33,31 @@ from typing import Any
 
 from neurovpr.errors import ValidationError
 
+from .architectures import get_architecture
+
 __all__ = [
     "HwSpec",
     "HardwareInfo",
     "ChipSpec",
     "CoreSpec",
-    "SynapseEncoding",
-    "SpinnakerRules",
     "Formats",
     "Timing",
     "EnergySpec",
     "Features",
     "load_hwspec",
     "known_hwspecs",
-    "PARTITIONERS",
+    "spec_field",
 ]
-
-#: Partitioners a hwspec may name, with the extra table each one needs.
-PARTITIONERS = {"loihi": "synapse_encoding", "spinnaker": "spinnaker"}
 
 _KW = {"frozen": True, "slots": True, "kw_only": True}
 
 
-def _f(kind: str, *, optional: bool = False, low: float | None = None, default: Any = None) -> Any:
-    """A hwspec field: ``kind`` is int, float, bool, str, int_list, int_rows or str_list."""
+def spec_field(kind: str, *, optional: bool = False, low: float | None = None, default: Any = None) -> Any:
+    """A hwspec field: ``kind`` is int, float, bool, str, int_list, int_rows or str_list.
+
+    Every table's dataclass (an architecture's rules too) declares its fields with this,
+    so that loading validates them the same way.
+    """
     meta = {"kind": kind, "optional": optional, "low": low}
     if optional:
         return field(default=default, metadata=meta)
@@ -66,133 +68,94 @@ def _f(kind: str, *, optional: bool = False, low: float | None = None, default: 
 class HardwareInfo:
     """``[hardware]``: identity of the target and whose mapping rules apply."""
 
-    name: str = _f("str")
-    title: str = _f("str")
-    partitioner: str = _f("str")
-    toolchain: str = _f("str")
+    name: str = spec_field("str")
+    title: str = spec_field("str")
+    partitioner: str = spec_field("str")
+    toolchain: str = spec_field("str")
 
 
 @dataclass(**_KW)
 class ChipSpec:
     """``[chip]``: chips and cores."""
 
-    n_chips: int = _f("int", low=1)
-    cores_per_chip: int = _f("int", low=1)
-    app_cores_per_chip: int = _f("int", low=1)
+    n_chips: int = spec_field("int", low=1)
+    cores_per_chip: int = spec_field("int", low=1)
+    app_cores_per_chip: int = spec_field("int", low=1)
 
 
 @dataclass(**_KW)
 class CoreSpec:
     """``[core]``: per-core limits; ``None`` where the target has no such per-core limit."""
 
-    max_neurons: int = _f("int", low=1)
-    max_input_axons: int | None = _f("int", optional=True, low=1)
-    max_output_axons: int | None = _f("int", optional=True, low=1)
-    synapse_memory_bits: int | None = _f("int", optional=True, low=1)
-    neuron_state_bits: int = _f("int", optional=True, low=0, default=0)
-
-
-@dataclass(**_KW)
-class SynapseEncoding:
-    """``[synapse_encoding]``: Loihi synapse memory layout (NengoLoihi's ``SynapseConfig``)."""
-
-    weight_bits: int = _f("int", low=1)
-    index_bits_map: tuple[int, ...] = _f("int_list")
-    synapses_per_list: int = _f("int", low=1)
-    list_header_bits: int = _f("int", low=0)
-    word_bits: int = _f("int", low=1)
-    delay_bits: int = _f("int", low=0)
-    population_axon_slots: int = _f("int", low=1)
-    max_compartment_base: int = _f("int", low=1)
-
-
-@dataclass(**_KW)
-class SpinnakerRules:
-    """``[spinnaker]``: sPyNNaker's slicing and synaptic-matrix constants, board geometry, and
-    the rules for separate neuron and synapse cores at time steps below ``split_core_below_ms``."""
-
-    poisson_sources_per_core: int = _f("int", low=1)
-    array_sources_per_core: int = _f("int", low=0)
-    max_row_words: int = _f("int", low=1)
-    row_header_words: int = _f("int", low=0)
-    bytes_per_word: int = _f("int", low=1)
-    matrix_base_bytes: int = _f("int", low=0)
-    block_alignment_bytes: int = _f("int", low=1)
-    plastic_header_bytes: int = _f("int", low=0)
-    plastic_half_words_per_synapse: int = _f("int", low=1)
-    fixed_half_words_per_synapse: int = _f("int", low=1)
-    ring_buffer_bits: int = _f("int", low=1)
-    delay_extension_stages: int = _f("int", low=0)
-    synapse_types: int = _f("int", low=1)
-    chip_rows: tuple[tuple[int, ...], ...] = _f("int_rows")
-    reduced_core_chips: tuple[tuple[int, ...], ...] = _f("int_rows")
-    system_cores_per_chip: int = _f("int", low=0)
-    ethernet_chip_extra_cores: int = _f("int", low=0)
-    sdram_per_chip_bytes: int = _f("int", low=1)
-    split_core_below_ms: float = _f("float", low=0.0)
-    spikes_per_second: float = _f("float", low=0.0)
-    static_synapses_per_second: int = _f("int", low=1)
-    stdp_synapses_per_second: int = _f("int", low=1)
-    scamp_cores_per_chip: int = _f("int", low=0)
-    time_scale_step_us: int = _f("int", low=1)
+    max_neurons: int = spec_field("int", low=1)
+    max_input_axons: int | None = spec_field("int", optional=True, low=1)
+    max_output_axons: int | None = spec_field("int", optional=True, low=1)
+    synapse_memory_bits: int | None = spec_field("int", optional=True, low=1)
+    neuron_state_bits: int = spec_field("int", optional=True, low=0, default=0)
 
 
 @dataclass(**_KW)
 class Formats:
-    """``[formats]``: number formats of weights and neuron state (for format emulation)."""
+    """``[formats]``: number formats of weights and neuron state, and the arithmetic they are computed in."""
 
-    weight_bits: int = _f("int", low=1)
-    weight_signed: bool = _f("bool")
-    weight_mantissa_bits: int = _f("int", low=1)
-    weight_exponent_min: int = _f("int")
-    weight_exponent_max: int = _f("int")
-    weight_exponent_offset: int = _f("int")
-    weight_scaling: str = _f("str")
-    state_format: str = _f("str")
-    fraction_bits: int = _f("int", low=0)
-    voltage_bits: int = _f("int", low=1)
-    current_bits: int = _f("int", low=1)
-    decay_bits: int = _f("int", low=1)
-    threshold_mantissa_bits: int = _f("int", low=1)
-    threshold_exponent: int = _f("int", low=0)
-    bias_mantissa_bits: int = _f("int", low=1)
-    bias_exponent_max: int = _f("int", low=0)
-    accumulator_bits: int = _f("int", low=1)
+    weight_bits: int = spec_field("int", low=1)
+    weight_signed: bool = spec_field("bool")
+    weight_mantissa_bits: int = spec_field("int", low=1)
+    weight_exponent_min: int = spec_field("int")
+    weight_exponent_max: int = spec_field("int")
+    weight_exponent_offset: int = spec_field("int")
+    weight_scaling: str = spec_field("str")
+    state_format: str = spec_field("str")
+    fraction_bits: int = spec_field("int", low=0)
+    voltage_bits: int = spec_field("int", low=1)
+    current_bits: int = spec_field("int", low=1)
+    decay_bits: int = spec_field("int", low=1)
+    threshold_mantissa_bits: int = spec_field("int", low=1)
+    threshold_exponent: int = spec_field("int", low=0)
+    bias_mantissa_bits: int = spec_field("int", low=1)
+    bias_exponent_max: int = spec_field("int", low=0)
+    accumulator_bits: int = spec_field("int", low=1)
+    #: The integer arithmetic these formats are computed in (its update order, rounding and
+    #: overflow rules): ``"loihi1"`` (NengoLoihi 1.1's emulator), ``"loihi2"`` (Lava 0.10's
+    #: bit-accurate models), ``"spinnaker"`` (sPyNNaker 7.4's LIF). A backend emulates a hwspec
+    #: whose arithmetic it declares (``Capabilities.arithmetic``); without one the hwspec is
+    #: checked but not emulated.
+    arithmetic: str | None = spec_field("str", optional=True)
 
 
 @dataclass(**_KW)
 class Timing:
     """``[timing]``: time step (ms), real-time operation and the longest delay (steps)."""
 
-    time_step_ms: float = _f("float", low=0.0)
-    real_time: bool = _f("bool")
-    max_delay_steps: int = _f("int", low=1)
+    time_step_ms: float = spec_field("float", low=0.0)
+    real_time: bool = spec_field("bool")
+    max_delay_steps: int = spec_field("int", low=1)
 
 
 @dataclass(**_KW)
 class EnergySpec:
     """``[energy]``: energy per operation (pJ) and power (W); ``None`` where unpublished."""
 
-    synaptic_op_pJ: float = _f("float", low=0.0)
-    synaptic_update_pJ: float = _f("float", low=0.0)
-    neuron_update_pJ: float = _f("float", low=0.0)
-    neuron_active_update_pJ: float = _f("float", low=0.0)
-    spike_within_chip_pJ: float = _f("float", low=0.0)
-    spike_between_chips_pJ: float | None = _f("float", optional=True, low=0.0)
-    static_power_per_chip_W: float = _f("float", low=0.0)
-    board_static_power_W: float | None = _f("float", optional=True, low=0.0)
-    active_core_power_W: float | None = _f("float", optional=True, low=0.0)
-    wall_time_per_step_s: float = _f("float", low=0.0)
-    basis: str = _f("str")
+    synaptic_op_pJ: float = spec_field("float", low=0.0)
+    synaptic_update_pJ: float = spec_field("float", low=0.0)
+    neuron_update_pJ: float = spec_field("float", low=0.0)
+    neuron_active_update_pJ: float = spec_field("float", low=0.0)
+    spike_within_chip_pJ: float = spec_field("float", low=0.0)
+    spike_between_chips_pJ: float | None = spec_field("float", optional=True, low=0.0)
+    static_power_per_chip_W: float = spec_field("float", low=0.0)
+    board_static_power_W: float | None = spec_field("float", optional=True, low=0.0)
+    active_core_power_W: float | None = spec_field("float", optional=True, low=0.0)
+    wall_time_per_step_s: float = spec_field("float", low=0.0)
+    basis: str = spec_field("str")
 
 
 @dataclass(**_KW)
 class Features:
     """``[features]``: IR type names the target can host."""
 
-    neuron_models: tuple[str, ...] = _f("str_list")
-    plasticity: tuple[str, ...] = _f("str_list")
-    connectors: tuple[str, ...] = _f("str_list")
+    neuron_models: tuple[str, ...] = spec_field("str_list")
+    plasticity: tuple[str, ...] = spec_field("str_list")
+    connectors: tuple[str, ...] = spec_field("str_list")
 
 
 @dataclass(**_KW)
@@ -203,6 +166,8 @@ class HwSpec:
     ----------
     name : str
         The hwspec name (``[hardware].name``), e.g. ``"kapoho-bay"``.
+    rules : object
+        The architecture's own table (its :attr:`~.architectures.Architecture.rules` dataclass).
     source : str
         The file it was read from.
     """
@@ -214,8 +179,7 @@ class HwSpec:
     timing: Timing
     energy: EnergySpec
     features: Features
-    synapse_encoding: SynapseEncoding | None = None
-    spinnaker: SpinnakerRules | None = None
+    rules: Any = None
     source: str = ""
 
     @property
@@ -230,7 +194,7 @@ class HwSpec:
 
     @property
     def partitioner(self) -> str:
-        """Whose rules split populations onto cores: ``"loihi"`` or ``"spinnaker"``."""
+        """The architecture whose rules split populations onto cores (``"loihi"``, ``"spinnaker"``, ...)."""
         return self.hardware.partitioner
 
     @property
@@ -247,10 +211,7 @@ _SECTIONS: dict[str, type] = {
     "timing": Timing,
     "energy": EnergySpec,
     "features": Features,
-    "synapse_encoding": SynapseEncoding,
-    "spinnaker": SpinnakerRules,
 }
-_OPTIONAL_SECTIONS = set(PARTITIONERS.values())
 
 
 def _hwspec_dir() -> Path:
@@ -326,42 +287,39 @@ def _parse(path: Path) -> HwSpec:
         raise ValidationError(f"hwspec file {where!r} is not valid TOML: {exc}.") from None
     except (OSError, UnicodeDecodeError) as exc:
         raise ValidationError(f"hwspec file {where!r} cannot be read: {exc}.") from None
-    unknown = sorted(set(data) - set(_SECTIONS))
+    if "hardware" not in data:
+        raise ValidationError(f"hwspec file {where!r}: missing table [hardware].")
+    partitioner = _section(where, "hardware", data["hardware"], HardwareInfo).partitioner
+    try:
+        arch = get_architecture(partitioner)
+    except ValidationError as exc:
+        raise ValidationError(f"hwspec file {where!r}: [hardware].partitioner: {exc}") from None
+    tables = {**_SECTIONS, arch.table: arch.rules}
+    unknown = sorted(set(data) - set(tables))
     if unknown:
         raise ValidationError(
-            f"hwspec file {where!r}: unknown table [{unknown[0]}] (known: {', '.join(_SECTIONS)})."
+            f"hwspec file {where!r}: unknown table [{unknown[0]}] (known for the {arch.name} architecture: "
+            f"{', '.join(tables)})."
         )
     parts: dict[str, Any] = {}
-    for name, cls in _SECTIONS.items():
+    for name, cls in tables.items():
         if name not in data:
-            if name in _OPTIONAL_SECTIONS:
-                continue
-            raise ValidationError(f"hwspec file {where!r}: missing table [{name}].")
+            required = f" (required by the {arch.name} partitioner)" if name == arch.table else ""
+            raise ValidationError(f"hwspec file {where!r}: missing table [{name}]{required}.")
         parts[name] = _section(where, name, data[name], cls)
-    partitioner = parts["hardware"].partitioner
-    if partitioner not in PARTITIONERS:
-        raise ValidationError(
-            f"hwspec file {where!r}: [hardware].partitioner must be one of {', '.join(PARTITIONERS)}, "
-            f"got {partitioner!r}."
-        )
-    needed = PARTITIONERS[partitioner]
-    if needed not in parts:
-        raise ValidationError(
-            f"hwspec file {where!r}: missing table [{needed}] (required by the {partitioner} partitioner)."
-        )
-    if partitioner == "loihi":
-        for key in ("max_input_axons", "max_output_axons", "synapse_memory_bits"):
-            if getattr(parts["core"], key) is None:
-                raise ValidationError(
-                    f"hwspec file {where!r}: missing field [core].{key} (required by the loihi partitioner)."
-                )
+    for key in arch.required_core:
+        if getattr(parts["core"], key) is None:
+            raise ValidationError(
+                f"hwspec file {where!r}: missing field [core].{key} (required by the {arch.name} partitioner)."
+            )
+    rules = parts.pop(arch.table)
     fmt = parts["formats"]
     if fmt.weight_exponent_min > fmt.weight_exponent_max:
         raise ValidationError(
             f"hwspec file {where!r}: [formats].weight_exponent_min ({fmt.weight_exponent_min}) "
             f"exceeds weight_exponent_max ({fmt.weight_exponent_max})."
         )
-    return HwSpec(**parts, source=where)
+    return HwSpec(**parts, rules=rules, source=where)
 
 
 def load_hwspec(name_or_path: str | Path) -> HwSpec:

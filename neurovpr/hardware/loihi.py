@@ -27,13 +27,29 @@ from dataclasses import dataclass, field
 import numpy as np
 from tqdm import tqdm
 
+from neurovpr.backendkit.timing import delay_steps
 from neurovpr.ir.connectors import AllToAllConnector, ConvolutionConnector
 from neurovpr.ir.network import Network, Projection
 
-from .hwspec import HwSpec, SynapseEncoding
-from .partition import CoreSlice, Partition, Violation, delay_steps, expand_on_chip
+from .architectures import Architecture
+from .cores import CoreSlice, Partition, Violation, expand_on_chip
+from .hwspec import HwSpec, spec_field
 
-__all__ = ["partition_loihi"]
+__all__ = ["SynapseEncoding", "partition_loihi", "LOIHI"]
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SynapseEncoding:
+    """``[synapse_encoding]``: Loihi synapse memory layout (NengoLoihi's ``SynapseConfig``)."""
+
+    weight_bits: int = spec_field("int", low=1)
+    index_bits_map: tuple[int, ...] = spec_field("int_list")
+    synapses_per_list: int = spec_field("int", low=1)
+    list_header_bits: int = spec_field("int", low=0)
+    word_bits: int = spec_field("int", low=1)
+    delay_bits: int = spec_field("int", low=0)
+    population_axon_slots: int = spec_field("int", low=1)
+    max_compartment_base: int = spec_field("int", low=1)
 
 
 def _ceil_div(a: int, b: int) -> int:
@@ -136,7 +152,7 @@ def _conv_structure(conn: ConvolutionConnector, kernel: np.ndarray, enc: Synapse
 
 
 def _build_synapse(network: Network, proj: Projection, spec: HwSpec, seed: int) -> _Synapse:
-    enc = spec.synapse_encoding
+    enc = spec.rules
     assert enc is not None
     pre = network.populations[proj.pre]
     post = network.populations[proj.post]
@@ -149,7 +165,7 @@ def _build_synapse(network: Network, proj: Projection, spec: HwSpec, seed: int) 
             delay_bits=enc.delay_bits if long else 0, conv=_conv_structure(conn, proj.synapse.weight, enc),
         )
     conns = expand_on_chip(network, proj, spec, seed)
-    long = bool(len(conns)) and int(delay_steps(conns, spec.timing.time_step_ms).max()) > 1
+    long = bool(len(conns)) and int(delay_steps(conns.delay, spec.timing.time_step_ms).max()) > 1
     dbits = enc.delay_bits if long else 0
     if isinstance(conn, AllToAllConnector):
         dense = np.zeros((pre.size, post.size), dtype=np.float32)
@@ -261,8 +277,8 @@ def _pre_axons(syn: _Synapse, lo: int, hi: int) -> np.ndarray:
 
 def partition_loihi(network: Network, spec: HwSpec, *, seed: int = 0) -> Partition:
     """Split ``network`` onto Loihi cores with NengoLoihi's rules (see the module docstring)."""
-    enc = spec.synapse_encoding
-    assert enc is not None, "the loihi partitioner needs [synapse_encoding]"
+    enc = spec.rules
+    assert isinstance(enc, SynapseEncoding), "the loihi partitioner needs [synapse_encoding]"
     core = spec.core
     max_in, max_out, max_bits = core.max_input_axons, core.max_output_axons, core.synapse_memory_bits
     assert max_in is not None and max_out is not None and max_bits is not None
@@ -374,3 +390,13 @@ def _validate(label: str, usage: dict[str, int], limits: dict[str, int], parts: 
                                    f"the {enc.index_bits_map[-1]}-bit synapse index."))
             )
     return out
+
+
+#: NengoLoihi's rules, for hwspecs with ``partitioner = "loihi"`` (entry point ``neurovpr.architectures``).
+LOIHI = Architecture(
+    name="loihi",
+    table="synapse_encoding",
+    rules=SynapseEncoding,
+    partition=partition_loihi,
+    required_core=("max_input_axons", "max_output_axons", "synapse_memory_bits"),
+)

@@ -51,9 +51,11 @@ from neurovpr.ir.cells import SpikeSourceArray, SpikeSourcePoisson
 from neurovpr.ir.connectors import OneToOneConnector
 from neurovpr.ir.network import Network, Projection
 
+from .architectures import Architecture
+from .cores import CoreSlice, Partition, Violation
 from .hwspec import HwSpec
-from .partition import CoreSlice, Partition, Violation
 from .spinnaker_rows import (
+    SpinnakerRules,
     align_block,
     delay_steps,
     longest_delay,
@@ -62,7 +64,7 @@ from .spinnaker_rows import (
     row_words,
 )
 
-__all__ = ["partition_spinnaker", "n_bits", "spynnaker_step_us", "spynnaker_timing"]
+__all__ = ["partition_spinnaker", "n_bits", "spynnaker_step_us", "spynnaker_timing", "SPINNAKER"]
 
 #: Link directions of a SpiNNaker chip, in link-id order (spinn_machine/machine.py LINK_ADD_TABLE).
 _LINKS = ((1, 0), (1, 1), (0, 1), (-1, 0), (-1, -1), (0, -1))
@@ -100,8 +102,8 @@ def spynnaker_timing(spec: HwSpec) -> HwSpec:
 
 
 def _max_atoms(pop, spec: HwSpec) -> int:
-    rules = spec.spinnaker
-    assert rules is not None
+    rules = spec.rules
+    assert isinstance(rules, SpinnakerRules)
     if isinstance(pop.cell_type, SpikeSourcePoisson):
         return min(rules.poisson_sources_per_core, pop.size)
     if isinstance(pop.cell_type, SpikeSourceArray):
@@ -121,7 +123,7 @@ class _Placer:
     """
 
     def __init__(self, spec: HwSpec) -> None:
-        rules = spec.spinnaker
+        rules = spec.rules
         assert rules is not None
         reduced = {tuple(c) for c in rules.reduced_core_chips}
         coords = sorted((x, y) for y, lo, hi in rules.chip_rows for x in range(lo, hi + 1))
@@ -220,8 +222,8 @@ def _synapse_cores(network: Network, spec: HwSpec, projs: list[Projection], even
     ``events`` holds the estimated longest row of each sPyNNaker projection, ``n_out`` the
     number of sPyNNaker projections leaving each population.
     """
-    rules = spec.spinnaker
-    assert rules is not None
+    rules = spec.rules
+    assert isinstance(rules, SpinnakerRules)
     pops = network.populations
     step_us = round(spec.timing.time_step_ms * 1000.0)  # whole microseconds (spynnaker_timing)
     scale = max(1, math.ceil(step_us / rules.time_scale_step_us))
@@ -282,10 +284,11 @@ def partition_spinnaker(network: Network, spec: HwSpec, *, seed: int = 0) -> Par
     """Split and place ``network`` on a SpiNNaker board with sPyNNaker's rules (module docstring).
 
     ``spec.timing.time_step_ms`` must be a step sPyNNaker runs, in whole microseconds
-    (:func:`spynnaker_timing`, which :func:`neurovpr.hardware.partition.partition` applies).
+    (:func:`spynnaker_timing`, which the architecture's ``runs_at`` applies before
+    :func:`neurovpr.hardware.partition.partition` calls this).
     """
-    rules = spec.spinnaker
-    assert rules is not None, "the spinnaker partitioner needs [spinnaker]"
+    rules = spec.rules
+    assert isinstance(rules, SpinnakerRules), "the spinnaker partitioner needs [spinnaker]"
     step = spec.timing.time_step_ms
     pops = network.populations
     max_atoms = {name: _max_atoms(p, spec) for name, p in pops.items()}
@@ -409,3 +412,22 @@ def partition_spinnaker(network: Network, spec: HwSpec, *, seed: int = 0) -> Par
                   f"cores estimated as sPyNNaker does from {rules.spikes_per_second:g} spikes/s per source.",)
     return Partition(hardware=spec.name, cores=tuple(cores), chips=len(chips_seen) + (1 if unplaced else 0),
                      violations=tuple(violations), notes=notes)
+
+
+def _spynnaker_run(spec: HwSpec) -> tuple[HwSpec, tuple[str, ...]]:
+    """The spec at sPyNNaker's whole-microsecond step, for its rules and the delays, with a note if it changed."""
+    asked = spec.timing.time_step_ms
+    run = spynnaker_timing(spec)
+    if run.timing.time_step_ms == asked:
+        return run, ()
+    return run, (f"sPyNNaker runs whole microseconds: the {asked:g} ms step runs as {run.timing.time_step_ms:g} ms.",)
+
+
+#: sPyNNaker's and PACMAN's rules, for hwspecs with ``partitioner = "spinnaker"`` (entry point ``neurovpr.architectures``).
+SPINNAKER = Architecture(
+    name="spinnaker",
+    table="spinnaker",
+    rules=SpinnakerRules,
+    partition=partition_spinnaker,
+    runs_at=_spynnaker_run,
+)

@@ -16,10 +16,11 @@ import numpy as np
 from neurovpr.ir.connectors import AllToAllConnector, OneToOneConnector
 from neurovpr.ir.network import Network, Projection
 
-from .hwspec import HwSpec, SpinnakerRules
-from .partition import expand_on_chip
+from .cores import expand_on_chip
+from .hwspec import HwSpec, spec_field
 
 __all__ = [
+    "SpinnakerRules",
     "RowLengths",
     "delay_steps",
     "align_block",
@@ -32,6 +33,37 @@ __all__ = [
     "list_row_max",
     "row_words",
 ]
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class SpinnakerRules:
+    """``[spinnaker]``: sPyNNaker's slicing and synaptic-matrix constants, board geometry, and
+    the rules for separate neuron and synapse cores at time steps below ``split_core_below_ms``."""
+
+    poisson_sources_per_core: int = spec_field("int", low=1)
+    array_sources_per_core: int = spec_field("int", low=0)
+    max_row_words: int = spec_field("int", low=1)
+    row_header_words: int = spec_field("int", low=0)
+    bytes_per_word: int = spec_field("int", low=1)
+    matrix_base_bytes: int = spec_field("int", low=0)
+    block_alignment_bytes: int = spec_field("int", low=1)
+    plastic_header_bytes: int = spec_field("int", low=0)
+    plastic_half_words_per_synapse: int = spec_field("int", low=1)
+    fixed_half_words_per_synapse: int = spec_field("int", low=1)
+    ring_buffer_bits: int = spec_field("int", low=1)
+    delay_extension_stages: int = spec_field("int", low=0)
+    synapse_types: int = spec_field("int", low=1)
+    chip_rows: tuple[tuple[int, ...], ...] = spec_field("int_rows")
+    reduced_core_chips: tuple[tuple[int, ...], ...] = spec_field("int_rows")
+    system_cores_per_chip: int = spec_field("int", low=0)
+    ethernet_chip_extra_cores: int = spec_field("int", low=0)
+    sdram_per_chip_bytes: int = spec_field("int", low=1)
+    split_core_below_ms: float = spec_field("float", low=0.0)
+    spikes_per_second: float = spec_field("float", low=0.0)
+    static_synapses_per_second: int = spec_field("int", low=1)
+    stdp_synapses_per_second: int = spec_field("int", low=1)
+    scamp_cores_per_chip: int = spec_field("int", low=0)
+    time_scale_step_us: int = spec_field("int", low=1)
 
 
 def delay_steps(delay_ms: np.ndarray | float, step_ms: float) -> np.ndarray:

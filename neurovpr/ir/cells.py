@@ -7,8 +7,9 @@ number for the whole population or a 1-D array with one value per neuron.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
-from typing import ClassVar
+from collections.abc import Sequence
+from dataclasses import InitVar, dataclass, field
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -42,6 +43,10 @@ class CellType(IRNode):
     conductance_based: ClassVar[bool] = False
     #: Names of the state variables a backend can record for this type.
     recordable: ClassVar[tuple[str, ...]] = ()
+
+    def for_size(self, n: int) -> CellType:
+        """The cell type as ``n`` neurons hold it (values shared by every neuron spelled out where needed)."""
+        return self
 
     def array_sizes(self) -> dict[str, int]:
         """Return ``{field: length}`` for every field given as a per-neuron array."""
@@ -207,25 +212,72 @@ class SpikeSourcePoisson(SourceType):
     duration: float = param(math.inf, unit="ms", low=0.0)
 
 
+def _spike_trains(spike_times: Any) -> tuple[list[np.ndarray], bool]:
+    """PyNN's ``spike_times``: one sequence of numbers (shared by every neuron) or one sequence per neuron.
+
+    Returns the trains and whether the one train is shared.
+    """
+    if isinstance(spike_times, (str, bytes)) or not isinstance(spike_times, (Sequence, np.ndarray)):
+        raise ValidationError(
+            f"SpikeSourceArray.spike_times must be a sequence of times (ms) or one sequence per neuron, "
+            f"got {type(spike_times).__name__}."
+        )
+    items = list(spike_times)
+    nested = [isinstance(x, (Sequence, np.ndarray)) and not isinstance(x, (str, bytes)) for x in items]
+    if items and all(nested):
+        trains = [np.asarray(x) for x in items]
+        shared = False
+    elif any(nested):
+        raise ValidationError("SpikeSourceArray.spike_times mixes numbers and sequences; give one or the other.")
+    else:
+        trains, shared = [np.asarray(items)], True
+    for i, train in enumerate(trains):
+        if train.ndim != 1 or (train.size and not np.issubdtype(train.dtype, np.number)):
+            where = "" if shared else f" of neuron {i}"
+            raise ValidationError(f"SpikeSourceArray.spike_times{where} must be a flat sequence of numbers (ms).")
+    return trains, shared
+
+
+def _flatten(trains: list[np.ndarray]) -> tuple[np.ndarray, np.ndarray]:
+    lengths = [t.size for t in trains]
+    offsets = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
+    flat = np.concatenate([t.astype(np.float64) for t in trains]) if any(lengths) else np.zeros(0)
+    return flat, offsets
+
+
 @dataclass(**_KW)
 class SpikeSourceArray(SourceType):
-    """Explicit spike times.
+    """Explicit spike times, as PyNN's ``SpikeSourceArray(spike_times=...)``.
 
-    ``spike_times`` is a sequence with one sorted sequence of times (ms) per neuron,
-    stored internally as a flat ``times`` array and CSR ``offsets`` (neuron ``i``
-    fires at ``times[offsets[i]:offsets[i+1]]``). Use :meth:`from_lists` or
-    :meth:`from_events` to build one.
+    ``spike_times`` is either one sorted sequence of times (ms), which every neuron of
+    the population fires (PyNN: a parameter given once is homogeneous), or one sorted
+    sequence per neuron (``[[...], [...]]``). The spike trains are stored as a flat
+    ``times`` array and CSR ``offsets`` (neuron ``i`` fires at
+    ``times[offsets[i]:offsets[i+1]]``); :meth:`from_lists` and :meth:`from_events`
+    build them too. A shared train (``shared`` is true) becomes one train per neuron
+    when the source is given to a population (:meth:`for_size`).
     """
 
+    spike_times: InitVar[Any] = None
     times: np.ndarray = field(default_factory=lambda: np.zeros(0), metadata={"unit": "ms"})
     offsets: np.ndarray = field(default_factory=lambda: np.zeros(1, dtype=np.int64))
+    #: True when one spike train is shared by every neuron (``spike_times`` was one sequence of numbers).
+    shared: bool = field(default=False, init=False)
 
-    def __post_init__(self) -> None:  # arrays may legitimately be empty here
+    def __post_init__(self, spike_times: Any) -> None:  # arrays may legitimately be empty here
+        name = type(self).__name__
+        if spike_times is not None:
+            if np.size(self.times) or np.size(self.offsets) != 1:
+                raise ValidationError(f"{name}: give spike_times, or times and offsets, not both.")
+            trains, shared = _spike_trains(spike_times)
+            flat, offsets = _flatten(trains)
+            object.__setattr__(self, "times", flat)
+            object.__setattr__(self, "offsets", offsets)
+            object.__setattr__(self, "shared", shared)
         times = freeze_array(self.times)
         offsets = freeze_array(self.offsets, dtype=np.int64)
         object.__setattr__(self, "times", times)
         object.__setattr__(self, "offsets", offsets)
-        name = type(self).__name__
         if times.ndim != 1 or offsets.ndim != 1 or offsets.size < 1:
             raise ValidationError(f"{name}.offsets must be a 1-D CSR offset array of length n+1.")
         if offsets[0] != 0 or offsets[-1] != times.size or np.any(np.diff(offsets) < 0):
@@ -244,16 +296,20 @@ class SpikeSourceArray(SourceType):
 
     @property
     def n_neurons(self) -> int:
-        """Number of neurons the spike trains describe."""
+        """Number of spike trains held (1 for a shared train)."""
         return int(self.offsets.size - 1)
+
+    def for_size(self, n: int) -> SpikeSourceArray:
+        """The source for ``n`` neurons: a shared train repeated for each; any other source unchanged."""
+        if not self.shared:
+            return self
+        return SpikeSourceArray(times=np.tile(self.times, n), offsets=np.arange(n + 1, dtype=np.int64) * self.times.size)
 
     @classmethod
     def from_lists(cls, spike_times: list[list[float]] | list[np.ndarray]) -> SpikeSourceArray:
         """Build from one sequence of spike times (ms) per neuron."""
-        lengths = [len(s) for s in spike_times]
-        offsets = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int64)
-        flat = np.concatenate([np.asarray(s, dtype=float) for s in spike_times]) if lengths else []
-        return cls(times=np.asarray(flat, dtype=float), offsets=offsets)
+        flat, offsets = _flatten([np.asarray(s, dtype=float) for s in spike_times])
+        return cls(times=flat, offsets=offsets)
 
     @classmethod
     def from_events(cls, times_ms: np.ndarray, neurons: np.ndarray, n_neurons: int) -> SpikeSourceArray:
@@ -272,8 +328,8 @@ class SpikeSourceArray(SourceType):
         return cls(times=times_ms[order], offsets=offsets)
 
     def array_sizes(self) -> dict[str, int]:
-        """Spike trains give the population size through ``offsets``."""
-        return {"spike_times": self.n_neurons}
+        """Per-neuron spike trains give the population size through ``offsets`` (a shared train fits any size)."""
+        return {} if self.shared else {"spike_times": self.n_neurons}
 
 
 #: Every cell type, by name (save/load, registries and capability tables use it).

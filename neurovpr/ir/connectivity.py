@@ -27,10 +27,22 @@ from neurovpr.ir.connectors import (
 from neurovpr.ir.distributions import Distribution
 from neurovpr.ir.network import Network, Projection
 
-__all__ = ["Connections", "expand", "projection_rng", "resolved_seed"]
+__all__ = [
+    "Connections",
+    "expand",
+    "projection_rng",
+    "stream_rng",
+    "resolved_seed",
+    "CONNECT",
+    "WEIGHT",
+    "DELAY",
+    "POISSON",
+]
 
-# Purposes of the independent random streams drawn for one projection.
-_CONNECT, _WEIGHT, _DELAY = 0, 1, 2
+#: Purposes of the independent random streams: a projection draws its connections,
+#: weights and delays from three streams, a ``SpikeSourcePoisson`` population its
+#: spikes from a fourth (every backend that draws Poisson spikes on the host uses it).
+CONNECT, WEIGHT, DELAY, POISSON = 0, 1, 2, 3
 
 
 @dataclass(frozen=True, slots=True)
@@ -62,10 +74,25 @@ def resolved_seed(projection: Projection, seed: int) -> int:
     return int(own) if own is not None else int(seed)
 
 
+def stream_rng(name: str, seed: int, purpose: int) -> np.random.Generator:
+    """A generator for one purpose of one named projection or population, independent of all others.
+
+    Parameters
+    ----------
+    name
+        The projection's or population's name.
+    seed
+        The seed the stream derives from (the compile seed, or a connector's own).
+    purpose
+        :data:`CONNECT`, :data:`WEIGHT`, :data:`DELAY` or :data:`POISSON`.
+    """
+    key = zlib.crc32(name.encode("utf-8"))
+    return np.random.default_rng(np.random.SeedSequence(entropy=int(seed), spawn_key=(key, purpose)))
+
+
 def projection_rng(projection: Projection, seed: int, purpose: int) -> np.random.Generator:
     """A generator for one purpose of one projection, independent of all others."""
-    key = zlib.crc32(projection.name.encode("utf-8"))
-    return np.random.default_rng(np.random.SeedSequence(entropy=resolved_seed(projection, seed), spawn_key=(key, purpose)))
+    return stream_rng(projection.name, resolved_seed(projection, seed), purpose)
 
 
 def _indices(proj: Projection, n_pre: int, n_post: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
@@ -83,7 +110,7 @@ def _indices(proj: Projection, n_pre: int, n_post: int, seed: int) -> tuple[np.n
         cl = conn.conn_list
         return cl[:, 0].astype(np.int64), cl[:, 1].astype(np.int64)
     if isinstance(conn, FixedProbabilityConnector):
-        rng = projection_rng(proj, seed, _CONNECT)
+        rng = projection_rng(proj, seed, CONNECT)
         pres, posts = [], []
         for i in range(n_pre):  # row by row keeps memory at O(n_post)
             row = np.flatnonzero(rng.random(n_post) < conn.p_connect)
@@ -104,7 +131,7 @@ def _indices(proj: Projection, n_pre: int, n_post: int, seed: int) -> tuple[np.n
 def _fixed_number_pre(
     proj: Projection, conn: FixedNumberPreConnector, n_pre: int, n_post: int, seed: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    rng = projection_rng(proj, seed, _CONNECT)
+    rng = projection_rng(proj, seed, CONNECT)
     if isinstance(conn.n, Distribution):
         counts = np.rint(conn.n.sample(rng, n_post)).astype(np.int64)
     else:
@@ -207,13 +234,13 @@ def expand(network: Network, projection: Projection | str, *, dt: float, seed: i
     if cl is not None and cl.shape[1] >= 3:
         weight = cl[:, 2].astype(np.float64)
     else:
-        weight = _values(proj, "weight", syn.weight, pre, post, seed, _WEIGHT)
+        weight = _values(proj, "weight", syn.weight, pre, post, seed, WEIGHT)
     if cl is not None and cl.shape[1] == 4:
         delay = cl[:, 3].astype(np.float64)
     elif syn.delay is None:
         delay = np.full(pre.size, float(dt))
     else:
-        delay = _values(proj, "delay", syn.delay, pre, post, seed, _DELAY)
+        delay = _values(proj, "delay", syn.delay, pre, post, seed, DELAY)
     if delay.size and delay.min() < dt * (1 - 1e-9):
         raise ValidationError(
             f"Projection {proj.name!r}: delay {delay.min():g} ms is shorter than the time step {dt:g} ms."

@@ -8,7 +8,7 @@ of a connector into explicit index arrays lives in :mod:`neurovpr.ir.connectivit
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, dataclass, field
 from typing import Any
 
 import numpy as np
@@ -29,6 +29,8 @@ __all__ = [
 ]
 
 _KW = {"frozen": True, "slots": True, "kw_only": True, "eq": False}
+#: As PyNN, the first parameter may be given by position (``FixedProbabilityConnector(0.1)``), the rest by keyword.
+_FIRST_POSITIONAL = {"frozen": True, "slots": True, "eq": False}
 
 
 class Connector(IRNode):
@@ -43,7 +45,7 @@ class Connector(IRNode):
         """Raise :class:`ValidationError` if the connector cannot join these sizes."""
 
 
-@dataclass(**_KW)
+@dataclass(**_FIRST_POSITIONAL)
 class AllToAllConnector(Connector):
     """Every presynaptic neuron to every postsynaptic neuron.
 
@@ -52,6 +54,7 @@ class AllToAllConnector(Connector):
     """
 
     allow_self_connections: bool = True
+    _: KW_ONLY
 
     def _validate(self) -> None:
         if not isinstance(self.allow_self_connections, bool):
@@ -69,13 +72,14 @@ class OneToOneConnector(Connector):
             )
 
 
-@dataclass(**_KW)
+@dataclass(**_FIRST_POSITIONAL)
 class FixedProbabilityConnector(Connector):
     """Each pair connects independently with probability ``p_connect``."""
 
     random = True
 
     p_connect: float = param(low=0.0, high=1.0)
+    _: KW_ONLY
     allow_self_connections: bool = True
     seed: int | None = None
 
@@ -83,7 +87,7 @@ class FixedProbabilityConnector(Connector):
         _check_seed(self)
 
 
-@dataclass(**_KW)
+@dataclass(**_FIRST_POSITIONAL)
 class FixedNumberPreConnector(Connector):
     """Each postsynaptic neuron receives ``n`` connections from random presynaptic neurons.
 
@@ -95,6 +99,7 @@ class FixedNumberPreConnector(Connector):
     random = True
 
     n: Any = 1
+    _: KW_ONLY
     allow_self_connections: bool = True
     with_replacement: bool = False
     seed: int | None = None
@@ -118,12 +123,13 @@ class FixedNumberPreConnector(Connector):
             )
 
 
-@dataclass(**_KW)
+@dataclass(**_FIRST_POSITIONAL)
 class FromListConnector(Connector):
     """Explicit connections: ``conn_list`` rows are ``(i, j)``, ``(i, j, weight)`` or
     ``(i, j, weight, delay)``; given weights and delays override the synapse's."""
 
     conn_list: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    _: KW_ONLY
 
     def __post_init__(self) -> None:
         try:

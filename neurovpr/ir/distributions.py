@@ -8,7 +8,7 @@ so every backend draws the same numbers for the same seed.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import KW_ONLY, dataclass
 
 import numpy as np
 
@@ -17,7 +17,8 @@ from neurovpr.ir.node import IRNode, param
 
 __all__ = ["Distribution", "Uniform", "Normal", "DISTRIBUTIONS"]
 
-_KW = {"frozen": True, "slots": True, "kw_only": True, "eq": False}
+#: The first parameter may be given by position (``Normal(0.3, sigma=0.1)``), the rest by keyword.
+_FIRST_POSITIONAL = {"frozen": True, "slots": True, "eq": False}
 
 
 class Distribution(IRNode):
@@ -35,11 +36,12 @@ class Distribution(IRNode):
         raise NotImplementedError
 
 
-@dataclass(**_KW)
+@dataclass(**_FIRST_POSITIONAL)
 class Uniform(Distribution):
     """Uniform on ``[low, high)``."""
 
     low: float = param(0.0)
+    _: KW_ONLY
     high: float = param(1.0)
 
     def _validate(self) -> None:
@@ -54,11 +56,12 @@ class Uniform(Distribution):
         return 0.5 * (self.low + self.high)
 
 
-@dataclass(**_KW)
+@dataclass(**_FIRST_POSITIONAL)
 class Normal(Distribution):
     """Normal ``N(mu, sigma)``, clipped to ``[low, high]`` (PyNN's ``normal_clipped_to_boundary``)."""
 
     mu: float = param(0.0)
+    _: KW_ONLY
     sigma: float = param(1.0, low=0.0)
     low: float = param(-math.inf, high=None)
     high: float = param(math.inf)

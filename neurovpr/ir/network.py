@@ -60,6 +60,7 @@ class Population(IRNode):
             raise ValidationError(
                 f"Population {self.name!r}: cell_type must be a neurovpr cell type, got {type(self.cell_type).__name__}."
             )
+        object.__setattr__(self, "cell_type", self.cell_type.for_size(self.size))
         for fname, length in self.cell_type.array_sizes().items():
             if length != self.size:
                 raise ValidationError(

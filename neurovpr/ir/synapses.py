@@ -16,7 +16,7 @@ negative (a signed current, as in converted convolutional networks).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import KW_ONLY, dataclass, field
 from typing import Any, Union
 
 import numpy as np
@@ -41,6 +41,10 @@ __all__ = [
 _KW = {"frozen": True, "slots": True, "kw_only": True, "eq": False}
 #: What a presynaptic arrival does under :class:`DiehlCookSTDP`: ``w -= eta_pre x_post`` or ``w += eta_pre x_post``.
 PRE_TERMS = ("depress", "potentiate")
+#: Where PyNN takes it by position (``STDPMechanism(SpikePairRule(...), ...)``, ``SpikePairRule(20.0, ...)``),
+#: the first parameter may be given by position, the rest by keyword; ``StaticSynapse`` stays keyword-only
+#: (PyNN's standard synapse types take ``**parameters``).
+_FIRST_POSITIONAL = {"frozen": True, "slots": True, "eq": False}
 
 WeightSpec = Union[float, Distribution, np.ndarray]
 DelaySpec = Union[float, Distribution, np.ndarray, None]
@@ -107,7 +111,7 @@ class StaticSynapse(Synapse):
     delay: Any = None
 
 
-@dataclass(**_KW)
+@dataclass(**_FIRST_POSITIONAL)
 class SpikePairRule(IRNode):
     """All-to-all spike-pair timing dependence with exponential windows.
 
@@ -117,16 +121,18 @@ class SpikePairRule(IRNode):
     """
 
     tau_plus: float = param(20.0, unit="ms", low=0.0, low_open=True)
+    _: KW_ONLY
     tau_minus: float = param(20.0, unit="ms", low=0.0, low_open=True)
     A_plus: float = param(0.01, low=0.0)
     A_minus: float = param(0.01, low=0.0)
 
 
-@dataclass(**_KW)
+@dataclass(**_FIRST_POSITIONAL)
 class AdditiveWeightDependence(IRNode):
     """``F+(w) = w_max``, ``F-(w) = w_max`` (as PyNN, NEST and sPyNNaker), clipped to ``[w_min, w_max]``."""
 
     w_min: float = param(0.0)
+    _: KW_ONLY
     w_max: float = param(1.0)
 
     def _validate(self) -> None:
@@ -134,18 +140,19 @@ class AdditiveWeightDependence(IRNode):
             raise ValidationError(f"{type(self).__name__}.w_max ({self.w_max!r}) must be >= w_min ({self.w_min!r}).")
 
 
-@dataclass(**_KW)
+@dataclass(**_FIRST_POSITIONAL)
 class MultiplicativeWeightDependence(AdditiveWeightDependence):
     """``F+(w) = w_max - w``, ``F-(w) = w - w_min`` (soft bounds)."""
 
 
-@dataclass(**_KW)
+@dataclass(**_FIRST_POSITIONAL)
 class STDPMechanism(Synapse):
     """PyNN's ``STDPMechanism``: a timing dependence and a weight dependence."""
 
     plastic = True
 
     timing_dependence: SpikePairRule = field(default_factory=SpikePairRule)
+    _: KW_ONLY
     weight_dependence: AdditiveWeightDependence = field(default_factory=AdditiveWeightDependence)
     weight: Any = 0.0
     delay: Any = None

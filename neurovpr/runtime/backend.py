@@ -3,6 +3,7 @@
 A backend package exposes one :class:`Backend` instance through the
 ``neurovpr.backends`` entry point. The instance is cheap to import (it names its
 simulator but does not import it); :meth:`Backend.compile` imports the simulator.
+Building blocks for both live in :mod:`neurovpr.backendkit`.
 """
 
 from __future__ import annotations
@@ -13,13 +14,60 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, Mapping
 
-from neurovpr.errors import BackendUnavailableError, UnsupportedFeatureError
+from neurovpr.errors import BackendUnavailableError, UnsupportedFeatureError, ValidationError
 
 if TYPE_CHECKING:
+    from neurovpr.hardware.check import HardwareTarget
     from neurovpr.ir.network import Network
     from neurovpr.runtime.simulation import Simulation
 
-__all__ = ["Capabilities", "Backend"]
+__all__ = ["Capabilities", "Backend", "ToleranceOverride", "capability_problems", "unsupported_error"]
+
+
+def unsupported_error(backend: str, problems: list[str]) -> UnsupportedFeatureError | None:
+    """The refusal naming the first of ``problems`` and how many more there are (``None`` when empty)."""
+    if not problems:
+        return None
+    more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
+    return UnsupportedFeatureError(f"Backend {backend!r} cannot run {problems[0]}{more}.")
+
+
+def capability_problems(capabilities: Capabilities, network: Network) -> list[str]:
+    """Every IR type of ``network`` missing from ``capabilities``, each with its reason when one is declared."""
+    problems: list[str] = []
+
+    def refuse(kind: str, what: str, where: str) -> None:
+        reason = capabilities.reasons.get(what)
+        problems.append(f"{kind} {what} ({where})" + (f": {reason}" if reason else ""))
+
+    for pop in network.populations.values():
+        kind = type(pop.cell_type).__name__
+        if kind not in capabilities.cell_types:
+            refuse("cell type", kind, f"population {pop.name!r}")
+    for proj in network.projections.values():
+        conn = type(proj.connector).__name__
+        syn = type(proj.synapse).__name__
+        if conn not in capabilities.connectors:
+            refuse("connector", conn, f"projection {proj.name!r}")
+        if syn not in capabilities.synapses:
+            refuse("synapse", syn, f"projection {proj.name!r}")
+    return problems
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ToleranceOverride:
+    """Looser conformance bounds for one case, and why the backend needs them.
+
+    Attributes
+    ----------
+    changes
+        Bound name -> value (the fields of ``neurovpr.conformance.tolerances.Tolerances``).
+    reason
+        Why the backend's numerics legitimately differ there.
+    """
+
+    changes: Mapping[str, float] = field(default_factory=dict)
+    reason: str = ""
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -38,12 +86,17 @@ class Capabilities:
         The sentence ``run`` raises when ``runs`` is false.
     heterogeneous_delays
         Whether delays may differ between the synapses of one projection.
-    hardware
-        Names of hwspecs whose number formats the backend can emulate.
+    arithmetic
+        The chip arithmetics it computes in with ``hardware=``: values of a hwspec's
+        ``[formats].arithmetic`` (``"loihi1"``, ``"loihi2"``, ``"spinnaker"``).
     recordables
         State variables it can record.
+    reasons
+        IR type name -> why the backend cannot run it (added to the refusal).
     unsupported
         Conformance cases it cannot run, each with the reason.
+    tolerances
+        Conformance cases whose bounds it loosens, each with the reason.
     """
 
     cell_types: frozenset[str]
@@ -53,9 +106,11 @@ class Capabilities:
     runs: bool = True
     run_refusal: str = ""
     heterogeneous_delays: bool = True
-    hardware: frozenset[str] = frozenset()
+    arithmetic: frozenset[str] = frozenset()
     recordables: frozenset[str] = frozenset({"v"})
+    reasons: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
     unsupported: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
+    tolerances: Mapping[str, ToleranceOverride] = field(default_factory=lambda: MappingProxyType({}))
 
     def as_dict(self) -> dict[str, Any]:
         """A JSON-ready description."""
@@ -67,16 +122,19 @@ class Capabilities:
             "runs": self.runs,
             "run_refusal": self.run_refusal or None,
             "heterogeneous_delays": self.heterogeneous_delays,
-            "hardware": sorted(self.hardware),
+            "arithmetic": sorted(self.arithmetic),
             "recordables": sorted(self.recordables),
+            "reasons": dict(self.reasons),
             "unsupported": dict(self.unsupported),
+            "tolerances": {case: {"changes": dict(o.changes), "reason": o.reason} for case, o in self.tolerances.items()},
         }
 
 
 class Backend:
     """Base class of a backend declaration.
 
-    Subclasses set the class attributes and implement :meth:`_compile`.
+    Subclasses set the class attributes and implement :meth:`_compile`; they may add
+    refusals that depend on parameter values in :meth:`network_problems`.
     """
 
     #: The name used with ``backend=`` and ``--backend``.
@@ -90,6 +148,8 @@ class Backend:
     #: The optional-dependency extra that installs it (``pip install neurovpr[EXTRA]``).
     extra: str = ""
     capabilities: Capabilities
+    #: Options ``compile`` accepts, with their defaults (passed to :meth:`_compile`).
+    options: Mapping[str, Any] = MappingProxyType({})
 
     def unavailable_reason(self) -> str | None:
         """``None`` when the simulator imports, otherwise why not (with the extra to install)."""
@@ -109,28 +169,25 @@ class Backend:
             return None
 
     def unsupported_features(self, network: Network) -> list[str]:
-        """Describe every feature of ``network`` this backend cannot compile."""
-        caps = self.capabilities
-        problems: list[str] = []
-        for pop in network.populations.values():
-            kind = type(pop.cell_type).__name__
-            if kind not in caps.cell_types:
-                problems.append(f"cell type {kind} (population {pop.name!r})")
-        for proj in network.projections.values():
-            conn = type(proj.connector).__name__
-            syn = type(proj.synapse).__name__
-            if conn not in caps.connectors:
-                problems.append(f"connector {conn} (projection {proj.name!r})")
-            if syn not in caps.synapses:
-                problems.append(f"synapse {syn} (projection {proj.name!r})")
-        return problems
+        """Describe every feature of ``network`` this backend cannot compile.
+
+        First the IR types missing from the capability table (:func:`capability_problems`);
+        when every type is supported, :meth:`network_problems`.
+        """
+        return capability_problems(self.capabilities, network) or self.network_problems(network)
+
+    def network_problems(self, network: Network) -> list[str]:
+        """Parameter values of ``network`` the backend cannot express (its types are all supported).
+
+        Each entry names the feature, the object and the value; none by default.
+        """
+        return []
 
     def check_network(self, network: Network) -> None:
         """Raise :class:`UnsupportedFeatureError` naming the first unsupported feature."""
-        problems = self.unsupported_features(network)
-        if problems:
-            more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
-            raise UnsupportedFeatureError(f"Backend {self.name!r} cannot run {problems[0]}{more}.")
+        error = unsupported_error(self.name, self.unsupported_features(network))
+        if error is not None:
+            raise error
 
     def compile(
         self,
@@ -138,20 +195,34 @@ class Backend:
         *,
         dt: float,
         seed: int,
-        hardware: Any = None,
+        hardware: HardwareTarget | None = None,
         **options: Any,
     ) -> Simulation:
-        """Check availability and features, then build a :class:`~neurovpr.runtime.simulation.Simulation`."""
+        """Check availability, features and options, then build a :class:`~neurovpr.runtime.simulation.Simulation`.
+
+        ``hardware`` is the target ``nv.compile(..., hardware=...)`` made: the hwspec and
+        the one partition of ``network`` on it (already known to fit).
+        """
         reason = self.unavailable_reason()
         if reason is not None:
             raise BackendUnavailableError(f"Backend {self.name!r} is not available: {reason}.")
         self.check_network(network)
-        if hardware is not None and hardware.name not in self.capabilities.hardware:
-            supported = ", ".join(sorted(self.capabilities.hardware)) or "none"
-            raise UnsupportedFeatureError(
-                f"Backend {self.name!r} cannot emulate hardware {hardware.name!r} (it emulates: {supported})."
-            )
-        return self._compile(network, dt=dt, seed=seed, hardware=hardware, **options)
+        if hardware is not None:
+            arithmetic = hardware.spec.formats.arithmetic
+            if arithmetic not in self.capabilities.arithmetic:
+                supported = ", ".join(sorted(self.capabilities.arithmetic)) or "none"
+                kind = f"the {arithmetic} arithmetic" if arithmetic else "an arithmetic ([formats].arithmetic is not set)"
+                raise UnsupportedFeatureError(
+                    f"Backend {self.name!r} cannot emulate hardware {hardware.name!r}: its hwspec declares {kind}, "
+                    f"the backend computes in: {supported}."
+                )
+        unknown = sorted(set(options) - set(self.options))
+        if unknown:
+            known = ", ".join(sorted(self.options)) or "none"
+            raise ValidationError(f"Backend {self.name!r} has no option {unknown[0]!r} (options: {known}).")
+        return self._compile(network, dt=dt, seed=seed, hardware=hardware, **{**self.options, **options})
 
-    def _compile(self, network: Network, *, dt: float, seed: int, hardware: Any, **options: Any) -> Simulation:
+    def _compile(
+        self, network: Network, *, dt: float, seed: int, hardware: HardwareTarget | None, **options: Any
+    ) -> Simulation:
         raise NotImplementedError

@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 
 from neurovpr.errors import ValidationError
+from neurovpr.hardware.check import hardware_target
 from neurovpr.ir.network import Network
 from neurovpr.runtime.registry import get_backend
 from neurovpr.runtime.simulation import Simulation
@@ -38,8 +39,10 @@ def compile(
         Seed of every random draw (connectivity, weights, Poisson spikes). ``None``
         draws a fresh seed, readable afterwards as ``Simulation.seed``.
     hardware
-        A hwspec name: check the network fits that chip and compute in its number
-        formats (backends that emulate it list it in their capabilities).
+        A hwspec name or ``.toml`` path: partition the network onto that chip once, with
+        this ``dt`` and ``seed``, refuse it unless it fits, and compute in the arithmetic
+        of its ``[formats]`` (backends list the arithmetics they emulate in their
+        capabilities). The simulation's ``hardware`` holds that partition.
     **options
         Backend-specific options (see each backend's documentation).
 
@@ -58,9 +61,5 @@ def compile(
         seed = int(np.random.SeedSequence().generate_state(1)[0])
     elif isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**63:
         raise ValidationError(f"compile: seed must be an integer in [0, 2**63), got {seed!r}.")
-    spec = None
-    if hardware is not None:
-        from neurovpr.hardware import hwspec_for_compile
-
-        spec = hwspec_for_compile(network, hardware)
-    return get_backend(backend).compile(network, dt=float(dt), seed=int(seed), hardware=spec, **options)
+    target = None if hardware is None else hardware_target(network, hardware, dt=float(dt), seed=int(seed))
+    return get_backend(backend).compile(network, dt=float(dt), seed=int(seed), hardware=target, **options)

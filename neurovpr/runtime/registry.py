@@ -13,7 +13,7 @@ from typing import Any
 from neurovpr.errors import BackendUnavailableError
 from neurovpr.runtime.backend import Backend
 
-__all__ = ["BackendInfo", "ENTRY_POINT_GROUP", "discover", "get_backend", "backend_infos"]
+__all__ = ["BackendInfo", "ENTRY_POINT_GROUP", "discover", "declared_names", "backend_info", "get_backend", "backend_infos"]
 
 ENTRY_POINT_GROUP = "neurovpr.backends"
 
@@ -47,30 +47,51 @@ def _entry_points() -> list[importlib.metadata.EntryPoint]:
     return sorted(importlib.metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda ep: ep.name)
 
 
+def _info(ep: importlib.metadata.EntryPoint) -> BackendInfo:
+    try:
+        backend = ep.load()
+    except Exception as exc:
+        return BackendInfo(ep.name, False, None, "", f"entry point {ep.value} failed to load: {exc}", None)
+    if not isinstance(backend, Backend):
+        reason = f"entry point {ep.value} is a {type(backend).__name__}, not a neurovpr Backend"
+        return BackendInfo(ep.name, False, None, "", reason, None)
+    reason = backend.unavailable_reason()
+    return BackendInfo(
+        ep.name,
+        reason is None,
+        backend.version() if reason is None else None,
+        backend.description,
+        reason,
+        backend,
+    )
+
+
+def declared_names() -> list[str]:
+    """Names of every declared backend, sorted (nothing is loaded)."""
+    return list(dict.fromkeys(ep.name for ep in _entry_points()))
+
+
+def backend_info(name: str) -> BackendInfo:
+    """Load the backend declared under ``name`` and report whether its simulator imports.
+
+    Raises
+    ------
+    BackendUnavailableError
+        If no backend has that name.
+    """
+    matches = [ep for ep in _entry_points() if ep.name == name]
+    if not matches:
+        known = ", ".join(declared_names()) or "none (is neurovpr installed?)"
+        raise BackendUnavailableError(f"Unknown backend {name!r}; known backends: {known}.")
+    return _info(matches[0])
+
+
 def discover() -> dict[str, BackendInfo]:
     """Load every declared backend and report whether its simulator imports."""
     infos: dict[str, BackendInfo] = {}
     for ep in _entry_points():
-        if ep.name in infos:
-            continue
-        try:
-            backend = ep.load()
-        except Exception as exc:
-            infos[ep.name] = BackendInfo(ep.name, False, None, "", f"entry point {ep.value} failed to load: {exc}", None)
-            continue
-        if not isinstance(backend, Backend):
-            reason = f"entry point {ep.value} is a {type(backend).__name__}, not a neurovpr Backend"
-            infos[ep.name] = BackendInfo(ep.name, False, None, "", reason, None)
-            continue
-        reason = backend.unavailable_reason()
-        infos[ep.name] = BackendInfo(
-            ep.name,
-            reason is None,
-            backend.version() if reason is None else None,
-            backend.description,
-            reason,
-            backend,
-        )
+        if ep.name not in infos:
+            infos[ep.name] = _info(ep)
     return infos
 
 
@@ -87,7 +108,7 @@ def get_backend(name: str) -> Backend:
         raise BackendUnavailableError(f"Backend name must be a string, got {name!r}.")
     matches = [ep for ep in _entry_points() if ep.name == name]
     if not matches:
-        known = ", ".join(ep.name for ep in _entry_points()) or "none (is neurovpr installed?)"
+        known = ", ".join(declared_names()) or "none (is neurovpr installed?)"
         raise BackendUnavailableError(f"Unknown backend {name!r}; known backends: {known}.")
     try:
         backend = matches[0].load()

@@ -21,14 +21,18 @@ from __future__ import annotations
 
 import math
 from abc import ABC, abstractmethod
-from typing import Any, Literal, Mapping
+from typing import TYPE_CHECKING, Any, Literal, Mapping
 
 import numpy as np
 
 from neurovpr.errors import SimulationError, ValidationError
 from neurovpr.ir.cells import IF_cond_exp_adaptive, SpikeSourceArray, SpikeSourcePoisson
 from neurovpr.ir.connectivity import resolved_seed
+from neurovpr.ir.connectors import ConvolutionConnector, FromListConnector
 from neurovpr.ir.network import Network
+
+if TYPE_CHECKING:
+    from neurovpr.hardware.check import HardwareTarget
 
 __all__ = ["Simulation"]
 
@@ -46,13 +50,18 @@ class Simulation(ABC):
         Time step in ms.
     seed
         The seed all random draws derive from.
+    hardware
+        The hardware target it was compiled for (``nv.compile(..., hardware=...)``), if any.
     """
 
-    def __init__(self, network: Network, *, backend: str, dt: float, seed: int) -> None:
+    def __init__(
+        self, network: Network, *, backend: str, dt: float, seed: int, hardware: HardwareTarget | None = None
+    ) -> None:
         self._network = network.copy()
         self._backend = backend
         self._dt = float(dt)
         self._seed = int(seed)
+        self._hardware = hardware
         self._plastic = True
         self._recording: dict[tuple[str, str], np.ndarray] = {}
 
@@ -76,6 +85,16 @@ class Simulation(ABC):
     def seed(self) -> int:
         """Seed of every random draw."""
         return self._seed
+
+    @property
+    def hardware(self) -> HardwareTarget | None:
+        """The hardware target compiled for: the hwspec and the one partition of the network on it.
+
+        That partition gave the fit verdict, sets the core blocks the chip's arithmetic
+        works in, and is the one to pass to :func:`neurovpr.hardware.estimate_energy`
+        (``partition=sim.hardware.partition``). ``None`` without ``hardware=``.
+        """
+        return self._hardware
 
     @property
     def plasticity_enabled(self) -> bool:
@@ -234,8 +253,6 @@ class Simulation(ABC):
             conn = proj.connector
             if hasattr(conn, "seed") and conn.random:
                 conn = conn.replace(seed=resolved_seed(proj, self._seed))
-            from neurovpr.ir.connectors import ConvolutionConnector, FromListConnector
-
             if isinstance(conn, ConvolutionConnector) or weight.size == 0:
                 continue  # kernels are shared and never learned; an empty projection has nothing to store
             if isinstance(conn, FromListConnector) and conn.conn_list.shape[1] >= 3:
@@ -285,7 +302,8 @@ class Simulation(ABC):
                 )
             return rates
         if isinstance(cell, SpikeSourceArray):
-            src = value if isinstance(value, SpikeSourceArray) else SpikeSourceArray.from_lists(list(value))
+            src = value if isinstance(value, SpikeSourceArray) else SpikeSourceArray(spike_times=value)
+            src = src.for_size(pop.size)
             if src.n_neurons != pop.size:
                 raise ValidationError(f"inputs[{name!r}]: spike times for {src.n_neurons} neurons, population has {pop.size}.")
             return src

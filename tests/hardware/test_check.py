@@ -12,7 +12,7 @@ from PIL import Image
 import neurovpr as nv
 from neurovpr.cli import main as cli
 from neurovpr.errors import ValidationError
-from neurovpr.hardware import check_network, hwspec_for_compile
+from neurovpr.hardware import check_network, hardware_target
 from neurovpr.hardware.plots import plot_utilisation
 
 
@@ -74,13 +74,14 @@ def test_table_lists_populations_and_violations():
     assert "exc" in text and "neuron model" in text and "does NOT fit" in text
 
 
-def test_hwspec_for_compile_and_nv_compile():
-    spec = hwspec_for_compile(small_net(), "kapoho-bay")
-    assert spec.name == "kapoho-bay"
+def test_hardware_target_and_nv_compile():
+    target = hardware_target(small_net(), "kapoho-bay", dt=1.0, seed=3)
+    assert target.name == "kapoho-bay" and target.dt == 1.0 and target.seed == 3
+    assert target.partition is target.report.partition and target.report.fits
     with pytest.raises(ValidationError) as info:
-        hwspec_for_compile(modular_snn(1), "kapoho-bay")
+        hardware_target(modular_snn(1), "kapoho-bay", dt=1.0, seed=0)
     msg = str(info.value)
-    assert msg.startswith("Network 'modular_snn' does not fit kapoho-bay (3 limit(s) broken; first:")
+    assert msg.startswith("Network 'modular_snn' does not fit kapoho-bay at dt=1 ms (3 limit(s) broken; first:")
     assert msg.count(". ") == 0 and msg.endswith(").")  # one sentence
     with pytest.raises(ValidationError, match="does not fit kapoho-bay"):
         nv.compile(modular_snn(1), backend="reference", hardware="kapoho-bay")

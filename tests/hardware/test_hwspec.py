@@ -34,9 +34,10 @@ def test_published_limits():
     assert (kb.core.max_input_axons, kb.core.max_output_axons, kb.core.synapse_memory_bits) == (4096, 4096, 16384 * 64)
     assert (l2.chip.n_chips, l2.core.max_neurons) == (1, 8192)
     assert (sp.chip.n_chips, sp.chip.cores_per_chip, sp.core.max_neurons) == (48, 18, 256)
-    assert sp.core.max_input_axons is None and sp.spinnaker.poisson_sources_per_core == 500
+    assert sp.core.max_input_axons is None and sp.rules.poisson_sources_per_core == 500
     assert kb.formats.decay_bits == 12 and kb.formats.voltage_bits == 24 and kb.formats.weight_bits == 8
     assert sp.formats.state_format == "s16.15" and sp.formats.weight_bits == 16
+    assert (kb.formats.arithmetic, l2.formats.arithmetic, sp.formats.arithmetic) == ("loihi1", "loihi2", "spinnaker")
     assert kb.energy.synaptic_op_pJ == 23.6 and kb.energy.spike_between_chips_pJ is None
 
 
@@ -93,7 +94,7 @@ def test_malformed_and_mistyped_files(tmp_path):
         load_hwspec(_write(tmp_path, text.replace("n_chips = 2", "n_chips = 0")))
     with pytest.raises(ValidationError, match=r"unknown field \[core\]\.max_neuron "):
         load_hwspec(_write(tmp_path, text.replace("max_neurons = 1024", "max_neuron = 1024")))
-    with pytest.raises(ValidationError, match=r"partitioner must be one of loihi, spinnaker, got 'nxsdk'"):
+    with pytest.raises(ValidationError, match=r"partitioner: Unknown architecture 'nxsdk'; known architectures: loihi, "):
         load_hwspec(_write(tmp_path, text.replace('partitioner = "loihi"', 'partitioner = "nxsdk"')))
     with pytest.raises(ValidationError, match="does not exist"):
         load_hwspec(tmp_path / "absent.toml")

@@ -99,6 +99,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from neurovpr.backendkit.params import per_neuron
 from neurovpr.errors import ValidationError
 from neurovpr.ir.cells import IF_curr_exp
 
@@ -292,7 +293,7 @@ def cell_from_node(
 
 def _cell_arrays(cell: IF_curr_exp, n: int) -> dict[str, np.ndarray]:
     names = ("cm", "tau_m", "tau_syn_E", "tau_syn_I", "v_rest", "v_reset", "v_thresh", "i_offset", "tau_refrac")
-    return {k: np.broadcast_to(np.asarray(getattr(cell, k), dtype=np.float64), (n,)).copy() for k in names}
+    return {k: per_neuron(getattr(cell, k), n) for k in names}
 
 
 def node_fields_from_cell(

@@ -10,18 +10,24 @@ import pytest
 
 import neurovpr as nv
 from neurovpr.runtime.backend import Backend, Capabilities
-from neurovpr.runtime.registry import BackendInfo, discover
+from neurovpr.runtime.registry import BackendInfo, backend_info, declared_names
 
 from .cases import CASES
 from .tolerances import Tolerances, tolerances_for
 
-__all__ = ["Target", "declared_backends"]
+__all__ = ["Target", "declared", "describe"]
 
 
 @functools.cache
-def declared_backends() -> dict[str, BackendInfo]:
-    """The registry's view of the declared backends (read once per test session)."""
-    return discover()
+def declared() -> tuple[str, ...]:
+    """Names of the declared backends (read once per test session)."""
+    return tuple(declared_names())
+
+
+@functools.cache
+def describe(name: str) -> BackendInfo:
+    """The registry's view of one declared backend (loaded once per test session)."""
+    return backend_info(name)
 
 
 @dataclass(frozen=True, slots=True)
@@ -37,8 +43,8 @@ class Target:
         return self.backend.capabilities
 
     def tol(self, case: str) -> Tolerances:
-        """The bounds this backend must meet in ``case``."""
-        return tolerances_for(self.name, case)
+        """The bounds this backend must meet in ``case`` (its declared overrides applied)."""
+        return tolerances_for(self.capabilities, case)
 
     def require(
         self,

@@ -8,36 +8,35 @@ from types import MappingProxyType
 import pytest
 
 import neurovpr as nv
-from neurovpr.runtime.backend import Backend, Capabilities
+from neurovpr.runtime.backend import Backend, Capabilities, ToleranceOverride
+from neurovpr.runtime.registry import BackendInfo
 
 from .cases import CASES
-from .target import Target, declared_backends
-from .tolerances import DEFAULT, OVERRIDES, Tolerances
-
-_DECLARED = declared_backends()
+from .target import Target
+from .tolerances import DEFAULT, Tolerances
 
 
-@pytest.mark.parametrize("name", [n for n, info in _DECLARED.items() if info.backend is not None])
-def test_unsupported_cases_are_known_and_explained(name):
+def test_unsupported_cases_are_known_and_explained(declared: BackendInfo):
     """Every case a backend lists as unsupported exists and comes with a reason."""
-    unsupported = _DECLARED[name].backend.capabilities.unsupported
-    for case, reason in unsupported.items():
-        assert case in CASES, f"backend {name!r} lists unknown conformance case {case!r}"
-        assert isinstance(reason, str) and reason.strip(), f"backend {name!r} gives no reason for {case!r}"
+    assert declared.backend is not None
+    for case, reason in declared.backend.capabilities.unsupported.items():
+        assert case in CASES, f"backend {declared.name!r} lists unknown conformance case {case!r}"
+        assert isinstance(reason, str) and reason.strip(), f"backend {declared.name!r} gives no reason for {case!r}"
 
 
-def test_tolerance_overrides_are_explained_and_only_loosen():
-    """Every tolerance override names a declared backend and a known case, gives a
+def test_tolerance_overrides_are_explained_and_only_loosen(declared: BackendInfo):
+    """Every tolerance override a backend declares names a known case and bound, gives a
     reason, and only loosens a default bound."""
+    assert declared.backend is not None
+    name = declared.name
     fields = {f.name for f in dataclasses.fields(Tolerances)}
-    for name, by_case in OVERRIDES.items():
-        assert name in _DECLARED, f"tolerance override for undeclared backend {name!r}"
-        for case, override in by_case.items():
-            assert case in CASES, f"tolerance override {name!r}: unknown case {case!r}"
-            assert override.reason.strip(), f"tolerance override {name!r}/{case!r} gives no reason"
-            for key, value in override.changes.items():
-                assert key in fields, f"tolerance override {name!r}/{case!r}: unknown bound {key!r}"
-                assert value >= getattr(DEFAULT, key), f"override {name!r}/{case!r} tightens {key!r}"
+    for case, override in declared.backend.capabilities.tolerances.items():
+        assert isinstance(override, ToleranceOverride), f"tolerance override {name!r}/{case!r} is not a ToleranceOverride"
+        assert case in CASES, f"tolerance override {name!r}: unknown case {case!r}"
+        assert override.reason.strip(), f"tolerance override {name!r}/{case!r} gives no reason"
+        for key, value in override.changes.items():
+            assert key in fields, f"tolerance override {name!r}/{case!r}: unknown bound {key!r}"
+            assert value >= getattr(DEFAULT, key), f"override {name!r}/{case!r} tightens {key!r}"
 
 
 class _Limited(Backend):
