@@ -4,7 +4,7 @@ Seeded random networks (``random_networks.py`` draws them and its docstring list
 1-2 explicit spike sources of 5-60 neurons at 5-80 Hz; 1-3 ``IF_curr_exp`` populations of
 3-40 neurons with ``tau_m`` 5-100 ms, ``tau_syn`` 1-20 ms, ``cm``, ``v_rest``, ``v_reset``,
 ``v_thresh``, ``v_init``, refractory periods 0-5 ms and bias currents drawn per population;
-excitatory and inhibitory projections, mixed-sign weights, PSPs of 5-200 % of the threshold
+excitatory and inhibitory projections, mixed-sign weights, PSPs of 5-100 % of the threshold
 gap, delays 1-16 ms; all-to-all, fixed-probability, fixed-number, one-to-one and explicit
 lists; recurrent projections for Lava) run 250 ms at 1 ms:
 
@@ -39,7 +39,7 @@ from neurovpr.hardware import load_hwspec
 
 #: Seeds of the default run and of the slow run, per oracle.
 DEFAULT_SEEDS = {"nengo-loihi": range(0, 24), "lava": range(0, 8)}
-SLOW_SEEDS = {"nengo-loihi": range(1000, 1300), "lava": range(1000, 1150)}
+SLOW_SEEDS = {"nengo-loihi": range(1000, 1300), "lava": range(1000, 1200)}
 
 
 @dataclass
