@@ -1,10 +1,11 @@
 """Quantisation: a network's float layout in a chip's integer formats.
 
 :func:`quantise` turns the float layout of :mod:`.translation` into a :class:`FixedLayout`
-with every format parameter read from the hwspec's ``[formats]`` table: for Loihi, each
-core block discretised as NengoLoihi's ``discretize_block`` does; for SpiNNaker,
-sPyNNaker's host conversion (see :mod:`.fixed_point`, which runs the result, and
-docs/number_formats.md).
+with every format parameter read from the hwspec's ``[formats]`` table: for Loihi 1, each
+core block discretised as NengoLoihi's ``discretize_block`` does; for Loihi 2, each
+population mapped as the ``lava-fixed`` backend hands it to Lava's ``fixed_pt`` models;
+for SpiNNaker, sPyNNaker's host conversion (see :mod:`.fixed_point`, which runs the
+result, and docs/number_formats.md).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import scipy.sparse
 
 from neurovpr.backendkit.params import per_neuron
 from neurovpr.errors import UnsupportedFeatureError, ValidationError
@@ -23,6 +25,7 @@ from neurovpr.ir.connectors import ConvolutionConnector
 from neurovpr.ir.network import Network
 
 from . import kernels_fixed as kf
+from . import loihi2_mapping as loihi2
 
 __all__ = ["FixedLayout", "quantise", "decay_magnitude", "COND_SHIFT"]
 
@@ -75,12 +78,7 @@ def decay_magnitude(decay: np.ndarray, x0: float, bits: int, offset: int = 0) ->
 
 def _kappa_scale(tau_syn: float, tau_m: float, dt: float) -> float:
     """``kappa dt_s / (1 - e_s)``: a weight (nA) to the compartment input of one spike of height ``1 / dt_s``."""
-    e_s, e_m = math.exp(-dt / tau_syn), math.exp(-dt / tau_m)
-    if math.isclose(tau_syn, tau_m, rel_tol=1e-9):
-        kappa = (dt / tau_m) * e_m / (1.0 - e_m)
-    else:
-        kappa = tau_syn * (e_s - e_m) / ((tau_syn - tau_m) * (1.0 - e_m))
-    return kappa * (dt / 1000.0) / (1.0 - e_s)
+    return loihi2.kappa(tau_syn, tau_m, dt) * (dt / 1000.0) / (1.0 - math.exp(-dt / tau_syn))
 
 
 def _float_weights(network: Network, lay: Any, dt: float, gains: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -161,8 +159,8 @@ def _discretize_block(fmt: Any, vth: np.ndarray, bias: np.ndarray, du: np.ndarra
             "vth": vth_man << fmt.threshold_exponent, "bias_man": b_man, "bias_exp": b_exp, "bias": b_man << b_exp}  # fmt: skip
 
 
-def _discretize_weights(fmt: Any, w: np.ndarray, w_exp2: int) -> tuple[np.ndarray, np.ndarray]:
-    """NengoLoihi's ``discretize_weights``: (the 8-bit weights, the input each adds after its exponent)."""
+def _discretize_weights(fmt: Any, w: np.ndarray, w_exp2: int) -> np.ndarray:
+    """NengoLoihi's ``discretize_weights``: the input each weight adds after its exponent."""
     s = fmt.weight_bits - fmt.weight_mantissa_bits  # low bits lost to the sign of mixed-sign weights
     m = 2**fmt.weight_mantissa_bits - 1
     mant = np.round(w / np.float32(2.0**s)).clip(-m, m).astype(np.int64)
@@ -170,33 +168,40 @@ def _discretize_weights(fmt: Any, w: np.ndarray, w_exp2: int) -> tuple[np.ndarra
     lossy = mant
     if s2 < 0:
         lossy = (np.round(mant * 2.0**s2) / 2**s2).clip(-m, m).astype(np.int64)
-    final = (lossy << s2 if s2 >= 0 else lossy >> -s2) << fmt.weight_exponent_offset
-    return mant << s, final
+    return (lossy << s2 if s2 >= 0 else lossy >> -s2) << fmt.weight_exponent_offset
 
 
-def _quantise_loihi(network: Network, spec: Any, lay: Any, dt: float, partition: Partition, variant: str) -> FixedLayout:
+def _synapse_groups(lay: Any) -> np.ndarray:
+    """Each static synapse's synapse group, one weight exponent each: a (projection, delay) pair."""
+    s_group = np.zeros(lay.s_w.size, dtype=np.int64)
+    for pos in lay.proj_static.values():
+        s_group[pos] = s_group.max(initial=-1) + 1 + np.unique(lay.s_delay[pos], return_inverse=True)[1]
+    return s_group
+
+
+def _set_voltage_range(params: np.ndarray, rows: np.ndarray, fmt: Any) -> None:
+    """Mark ``rows`` as compartments with ``v`` saturating at ``voltage_bits`` (their initial ``v`` too)."""
+    params[rows, kf.L_VMIN] = -(2 ** (fmt.voltage_bits - 1)) + 1
+    params[rows, kf.L_VMAX] = 2 ** (fmt.voltage_bits - 1) - 1
+    params[rows, kf.L_ACTIVE] = 1
+    params[rows, kf.L_V_INIT] = np.clip(params[rows, kf.L_V_INIT], params[rows, kf.L_VMIN], params[rows, kf.L_VMAX])
+
+
+def _quantise_loihi1(network: Network, spec: Any, lay: Any, dt: float, partition: Partition) -> FixedLayout:
+    """Loihi 1: each core block of ``partition`` discretised as NengoLoihi's ``discretize_block``."""
     fmt = spec.formats
     n = lay.n
     dt_s = dt / 1000.0
     params = np.zeros((n, kf.N_LOIHI_COLS), dtype=np.int64)
     v_unit = np.zeros(n)
-    gains: dict[str, np.ndarray] = {}
-    for pop in network.populations.values():
-        if not pop.is_source:
-            c = pop.cell_type
-            gains[pop.name] = (per_neuron(c.tau_m, pop.size) / per_neuron(c.cm, pop.size)) / (
-                per_neuron(c.v_thresh, pop.size) - per_neuron(c.v_reset, pop.size)
-            )
+    gains = {pop.name: loihi2.gain(pop) for pop in network.populations.values() if not pop.is_source}
     fw = _float_weights(network, lay, dt, gains)
-    # synapse groups (one weight exponent each): (projection, delay); ring columns: (group, post neuron)
-    s_group = np.zeros(lay.s_w.size, dtype=np.int64)
+    s_group = _synapse_groups(lay)
     s_fw = np.zeros(lay.s_w.size, dtype=np.float32)
     for name, pos in lay.proj_static.items():
-        s_group[pos] = s_group.max(initial=-1) + 1 + np.unique(lay.s_delay[pos], return_inverse=True)[1]
         s_fw[pos] = fw[name]
     s_val = np.zeros(lay.s_w.size, dtype=np.int64)
     s_exp = np.zeros(lay.s_w.size, dtype=np.int64)
-    s_mant = np.zeros(lay.s_w.size, dtype=np.int64)
     blocks: list[dict[str, Any]] = []
     cores = partition.cores
     for pop in network.populations.values():
@@ -240,8 +245,7 @@ def _quantise_loihi(network: Network, spec: Any, lay: Any, dt: float, partition:
                     dw = info["w_exp"] - w_exp2
                 ws = info["w_scale"]
                 ws = ws[lay.s_post[sel] - off - lo] if np.ndim(ws) else ws
-                mant, final = _discretize_weights(fmt, s_fw[sel] * ws * 2**dw, w_exp2)
-                s_mant[sel], s_val[sel], s_exp[sel] = mant, final, w_exp2
+                s_val[sel], s_exp[sel] = _discretize_weights(fmt, s_fw[sel] * ws * 2**dw, w_exp2), w_exp2
             params[glob, kf.L_RU] = 2**fmt.decay_bits - 1 - du[lo:hi]
             params[glob, kf.L_RV] = 2**fmt.decay_bits - dv[lo:hi]
             params[glob, kf.L_BIAS] = info["bias"]
@@ -251,25 +255,68 @@ def _quantise_loihi(network: Network, spec: Any, lay: Any, dt: float, partition:
             v_unit[glob] = (thresh[lo:hi] - reset[lo:hi]) / info["v_scale"]
             blocks.append({"population": pop.name, "lo": lo, "hi": hi, "du": du[lo:hi], "dv": dv[lo:hi],
                            "ref": ref[lo:hi].astype(np.int64), **{k: v for k, v in info.items() if k != "w_scale"}})  # fmt: skip
-        rows = np.arange(off, off + size)
-        params[rows, kf.L_VMIN] = -(2 ** (fmt.voltage_bits - 1)) + 1
-        params[rows, kf.L_VMAX] = 2 ** (fmt.voltage_bits - 1) - 1
-        params[rows, kf.L_ACTIVE] = 1
-    params[:, kf.L_V_INIT] = np.clip(params[:, kf.L_V_INIT], params[:, kf.L_VMIN], params[:, kf.L_VMAX])
-    key = s_group * n + lay.s_post
-    uniq, s_gp = np.unique(key, return_inverse=True)
+        _set_voltage_range(params, np.arange(off, off + size), fmt)
+    weights = {name: {"value": s_val[pos], "exponent": s_exp[pos]} for name, pos in lay.proj_static.items()}
+    s_gp, gp_post, _, n_gp = _ring_columns(s_group, s_exp, lay.s_post, lay.n)
+    return FixedLayout(variant="loihi1", params=params, s_val=s_val, s_gp=s_gp, gp_post=gp_post,
+                       gp_exp=np.zeros(n_gp, dtype=np.int64), n_gp=n_gp, v_unit=v_unit, blocks=blocks,
+                       weights=weights)  # fmt: skip
+
+
+def _ring_columns(
+    s_group: np.ndarray, s_exp: np.ndarray, s_post: np.ndarray, n: int
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, int]:
+    """Delay-ring columns, one per (synapse group, postsynaptic neuron): each synapse's column, and per column
+    its neuron and its group's exponent, and the number of columns."""
+    uniq, s_gp = np.unique(s_group * n + s_post, return_inverse=True)
+    first = np.zeros(uniq.size, dtype=np.int64)
+    first[s_gp] = np.arange(s_gp.size)
     gp_post = uniq % n if n else uniq
-    loihi1 = variant == "loihi1"
-    gp_exp = np.zeros(uniq.size, dtype=np.int64)
-    if not loihi1 and uniq.size:
-        first = np.zeros(uniq.size, dtype=np.int64)
-        first[s_gp] = np.arange(s_gp.size)
-        gp_exp = s_exp[first]
-    weights = {name: {"value": (s_val if loihi1 else s_mant)[pos], "exponent": s_exp[pos]}
-               for name, pos in lay.proj_static.items()}  # fmt: skip
-    return FixedLayout(variant=variant, params=params, s_val=s_val if loihi1 else s_mant, s_gp=s_gp.astype(np.int64),
-                       gp_post=gp_post.astype(np.int64), gp_exp=gp_exp, n_gp=int(uniq.size), v_unit=v_unit,
-                       blocks=blocks, weights=weights)  # fmt: skip
+    return s_gp.reshape(-1).astype(np.int64), gp_post.astype(np.int64), s_exp[first].astype(np.int64), int(uniq.size)
+
+
+# -- Loihi 2 ------------------------------------------------------------------------
+def _quantise_loihi2(network: Network, spec: Any, lay: Any, dt: float) -> FixedLayout:
+    """Loihi 2: each population as the ``lava-fixed`` backend maps it (:mod:`.loihi2_mapping`), one weight
+    exponent per synapse group (one Lava synapse process per projection and delay)."""
+    fmt = spec.formats
+    params = np.zeros((lay.n, kf.N_LOIHI_COLS), dtype=np.int64)
+    v_unit = np.zeros(lay.n)
+    s_group = _synapse_groups(lay)
+    s_val = np.zeros(lay.s_w.size, dtype=np.int64)
+    s_exp = np.zeros(lay.s_w.size, dtype=np.int64)
+    blocks: list[dict[str, Any]] = []
+    for pop in network.populations.values():
+        if pop.is_source:
+            continue
+        projs = [p for p in network.projections.values() if p.post == pop.name]
+        lif = loihi2.lif_integers(pop, dt, fmt, inhibitory_only={p.receptor_type for p in projs} == {"inhibitory"})
+        rows = np.arange(lay.offsets[pop.name][0], lay.offsets[pop.name][1])
+        for col, key in ((kf.L_RU, "ru"), (kf.L_RV, "rv"), (kf.L_BIAS, "bias"), (kf.L_VTH, "vth"), (kf.L_REF, "ref"),
+                         (kf.L_V_INIT, "v_init")):  # fmt: skip
+            params[rows, col] = lif[key]
+        _set_voltage_range(params, rows, fmt)
+        v_unit[rows] = lif["v_unit"]
+        kept = ("du", "dv", "ref", "v_scale", "vth_man", "vth", "bias_man", "bias_exp", "bias")
+        blocks.append({"population": pop.name, "lo": 0, "hi": pop.size, **{k: lif[k] for k in kept}})
+        for proj in projs:
+            pos = lay.proj_static[proj.name]
+            pre, post = lay.proj_pre[proj.name], lay.proj_post[proj.name]
+            n_pre = network.populations[proj.pre].size
+            values = lay.s_w[pos] * loihi2.weight_scale(pop, proj.receptor_type, dt)[post]
+            for g in np.unique(s_group[pos]):
+                sel = np.flatnonzero(s_group[pos] == g)
+                # duplicates of a (pre, post) pair summed as the lava-fixed backend sums them (a scipy CSR matrix)
+                matrix = scipy.sparse.coo_matrix((values[sel], (post[sel], pre[sel])), shape=(pop.size, n_pre)).tocsr()
+                matrix.sum_duplicates()
+                first = sel[np.unique(post[sel] * n_pre + pre[sel], return_index=True)[1]]
+                summed = np.asarray(matrix[post[first], pre[first]], dtype=np.float64).reshape(-1)
+                where = f"Projection {proj.name!r} (delay {int(lay.s_delay[pos[sel[0]]]) * dt:g} ms)"
+                s_val[pos[first]], s_exp[pos[sel]] = loihi2.weight_integers(summed * lif["vth_man"][0], fmt, where)
+    weights = {name: {"value": s_val[pos], "exponent": s_exp[pos]} for name, pos in lay.proj_static.items()}
+    s_gp, gp_post, gp_exp, n_gp = _ring_columns(s_group, s_exp, lay.s_post, lay.n)
+    return FixedLayout(variant="loihi2", params=params, s_val=s_val, s_gp=s_gp, gp_post=gp_post, gp_exp=gp_exp,
+                       n_gp=n_gp, v_unit=v_unit, blocks=blocks, weights=weights)  # fmt: skip
 
 
 # -- SpiNNaker ------------------------------------------------------------------------
@@ -378,7 +425,9 @@ def quantise(network: Network, spec: Any, lay: Any, *, dt: float, partition: Par
     variant = spec.formats.arithmetic
     if variant == "spinnaker":
         return _quantise_spinnaker(network, spec, lay, dt)
-    return _quantise_loihi(network, spec, lay, dt, partition, variant)
+    if variant == "loihi2":
+        return _quantise_loihi2(network, spec, lay, dt)
+    return _quantise_loihi1(network, spec, lay, dt, partition)
 
 
 # -- simulation -----------------------------------------------------------------------
