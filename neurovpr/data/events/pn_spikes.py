@@ -12,13 +12,14 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-import h5py
 import numpy as np
 import scipy.io
 
 from neurovpr.errors import FileFormatError, ValidationError
+from neurovpr.hdf5 import HDF5Rules, open_hdf5, read_dataset
 from neurovpr.ir.cells import SpikeSourceArray
 from neurovpr.ir.node import IRNode, freeze_array, param
+from neurovpr.resources import require_memory
 
 __all__ = ["PNSpikes", "read_pn_mat", "stretch_time"]
 
@@ -167,13 +168,36 @@ def stretch_time(spikes: PNSpikes, factor: float) -> PNSpikes:
     )
 
 
+#: What a MATLAB v7.3 (HDF5) file may hold: numbers and text, MATLAB's compression, nothing outside the file.
+_MAT73_RULES = HDF5Rules(what="PN spike file", filters=("gzip", "shuffle", "fletcher32"), strings=True)
+
+
+def _check_mat5_sizes(path: Path) -> None:
+    """Refuse a MATLAB v5 file whose ``t``/``idx`` declare more values than the file or the memory limit holds."""
+    variables = {name: shape for name, shape, _ in scipy.io.whosmat(path)}
+    total = 0.0
+    for name in ("t", "idx"):
+        if name in variables:
+            values = float(np.prod(variables[name], dtype=np.float64))
+            total += values * 8
+            if values > path.stat().st_size * 1100:  # more than even compressed bytes can hold
+                raise FileFormatError(
+                    f"PN spike file {str(path)!r} is forged: array {name!r} declares {values:.3g} values "
+                    f"in a file of {path.stat().st_size} bytes."
+                )
+    require_memory(2 * total, f"reading PN spike file {str(path)!r} ({total / 8:.3g} values)")
+
+
 def _load_mat_arrays(path: Path) -> tuple[np.ndarray, np.ndarray]:
     try:
         try:
+            _check_mat5_sizes(path)
             data = scipy.io.loadmat(path, variable_names=["t", "idx"])
         except NotImplementedError:  # MATLAB v7.3 files are HDF5
-            with h5py.File(path, "r") as fh:
-                data = {name: np.asarray(fh[name][()]) for name in ("t", "idx") if name in fh}
+            with open_hdf5(path, _MAT73_RULES) as fh:
+                data = {name: read_dataset(fh[name], str(path), _MAT73_RULES) for name in ("t", "idx") if name in fh}
+    except (ValidationError, FileFormatError):
+        raise
     except (scipy.io.matlab.MatReadError, ValueError, TypeError, OSError) as exc:
         raise FileFormatError(f"PN spike file {str(path)!r} is not a readable MATLAB file: {exc}.") from exc
     missing = [name for name in ("t", "idx") if name not in data]
@@ -218,6 +242,9 @@ def read_pn_mat(
     else:
         finite = idx[np.isfinite(idx)]
         limit = max(int(finite.max()) + 1, 1) if finite.size else 1
+    require_memory(
+        64.0 * limit, f"PN spike file {str(path)!r}: {limit} PNs (n_pn or the highest idx + 1)", " to count spikes per PN"
+    )
     problem = _first_bad_spike(t, idx, limit)
     if problem is not None:
         raise ValidationError(f"PN spike file {str(path)!r}: {problem}.")
