@@ -9,6 +9,7 @@ import numpy as np
 
 from neurovpr.errors import ValidationError
 from neurovpr.ir.network import Network
+from neurovpr.resources import check_network
 from neurovpr.runtime.registry import get_backend
 from neurovpr.runtime.simulation import Simulation
 
@@ -58,6 +59,7 @@ def compile(
         seed = int(np.random.SeedSequence().generate_state(1)[0])
     elif isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**63:
         raise ValidationError(f"compile: seed must be an integer in [0, 2**63), got {seed!r}.")
+    check_network(network, dt=float(dt), what="compile")
     spec = None
     if hardware is not None:
         from neurovpr.hardware import hwspec_for_compile
