@@ -16,7 +16,7 @@ from neurovpr.ir.node import UnknownParameterError
 from neurovpr.resources import ResourceLimitError
 
 _NEURONS = [cls for name, cls in sorted(CELL_TYPES.items()) if not cls.is_source and dataclasses.is_dataclass(cls)]
-_NUMERIC = [(cls, f) for cls in _NEURONS + [nv.SpikeSourcePoisson] for f in dataclasses.fields(cls) if f.metadata.get("numeric")]
+_NUMERIC = [(cls, f) for cls in [*_NEURONS, nv.SpikeSourcePoisson] for f in dataclasses.fields(cls) if f.metadata.get("numeric")]
 
 
 @settings(max_examples=60, deadline=None)
@@ -51,7 +51,7 @@ def test_no_leak_has_its_own_spelling() -> None:
 
 @settings(max_examples=40, deadline=None)
 @given(
-    cls=st.sampled_from(_NEURONS + [nv.SpikeSourcePoisson, nv.StaticSynapse]),
+    cls=st.sampled_from([*_NEURONS, nv.SpikeSourcePoisson, nv.StaticSynapse]),
     name=st.text("abcdefghijklmnopqrstuvwxyz_", min_size=1, max_size=12),
 )
 def test_unknown_keywords_name_the_accepted_ones(cls, name) -> None:
