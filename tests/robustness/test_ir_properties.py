@@ -76,7 +76,8 @@ def test_compile_and_run_estimate_before_allocating(monkeypatch: pytest.MonkeyPa
     big.add_population("a", 10**12, nv.IF_curr_exp())
     _timed(
         lambda: nv.compile(big),
-        r"compile: network 'big' needs about .* TiB of memory \(most of it for population 'a' \(1000000000000 neurons\)\); the limit is",
+        r"compile: network 'big' needs about .* TiB of memory "
+        r"\(most of it for population 'a' \(1000000000000 neurons\)\); the limit is",
     )
     slow = nv.Network("slow")
     slow.add_population("s", 2, nv.SpikeSourcePoisson(rate=5.0))
