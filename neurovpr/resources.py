@@ -252,15 +252,18 @@ def estimate_network(network: Any, *, dt: float) -> NetworkEstimate:
     return NetworkEstimate(neurons=neurons, synapses=synapses, memory=memory, step_work=step_work, parts=parts)
 
 
-def check_network(network: Any, *, dt: float, what: str = "compile") -> NetworkEstimate:
+def check_network(network: Any, *, dt: float, what: str = "compile", copies: int = 1) -> NetworkEstimate:
     """Refuse ``network`` when building it at ``dt`` needs more than the memory limit; returns the estimate.
+
+    ``copies``: how many are built at once (one per worker process of a training run).
 
     The sentence names the network and its largest part (the population or
     projection that dominates), e.g. ``"compile: network 'n' needs about 175.0 TiB
     of memory, most of it for population 'a' (10^12 neurons); the limit is ..."``.
     """
     est = estimate_network(network, dt=dt)
-    require_memory(est.memory, f"{what}: network {network.name!r}", f" (most of it for {est.largest()})")
+    times = f" x {copies} at once" if copies > 1 else ""
+    require_memory(est.memory * copies, f"{what}: network {network.name!r}{times}", f" (most of it for {est.largest()})")
     return est
 
 

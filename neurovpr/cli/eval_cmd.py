@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 from neurovpr.apps.modelapi import get_model, model_names, read_run_info
+from neurovpr.cli.arguments import parse_model_options
 from neurovpr.cli.main import _Parser
 
 
@@ -37,7 +38,7 @@ def run(args: argparse.Namespace) -> int:
     parser = _Parser(prog="neurovpr eval")
     _common(parser)
     model.add_eval_arguments(parser.add_argument_group(f"{info['model']} options"))  # type: ignore[arg-type]
-    args = parser.parse_args(args.argv[1:])
+    args = parse_model_options(parser, args.argv[1:], "eval", info["model"])
     result = model.evaluate(args, info)
     if args.json:
         print(json.dumps(result))

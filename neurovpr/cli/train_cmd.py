@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 from neurovpr.apps.modelapi import ModelPlugin, get_model, model_names
+from neurovpr.cli.arguments import parse_model_options
 from neurovpr.cli.main import _Parser
+from neurovpr.fileio import remove_stale_temps
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -45,7 +48,7 @@ def parse_train_arguments(model: ModelPlugin | str, argv: Sequence[str]) -> tupl
     parser = _Parser(prog="neurovpr train")
     _common(parser)
     plugin.add_train_arguments(parser.add_argument_group(f"{plugin.name} options"))  # type: ignore[arg-type]
-    return plugin, parser.parse_args(list(argv))
+    return plugin, parse_model_options(parser, argv, "train", plugin.name)
 
 
 def model_arguments(args: argparse.Namespace) -> tuple[ModelPlugin, argparse.Namespace]:
@@ -56,6 +59,9 @@ def model_arguments(args: argparse.Namespace) -> tuple[ModelPlugin, argparse.Nam
 def run(args: argparse.Namespace) -> int:
     """Dispatch to the chosen model."""
     model, margs = model_arguments(args)
+    removed = remove_stale_temps(margs.out)
+    if removed:
+        print(f"note: removed {len(removed)} temporary file(s) a killed run left in {margs.out}.", file=sys.stderr)
     summary = model.train(margs)
     if margs.json:
         print(json.dumps(summary))
