@@ -22,12 +22,12 @@ import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
-from neurovpr.errors import ValidationError
+from neurovpr.errors import NeurovprError, ValidationError
 from neurovpr.fileio import check_output
 
-__all__ = ["Number", "NUMBERS", "OUTPUTS", "ONLY_WITH", "validate", "option_given", "parse_model_options"]
+__all__ = ["ModelHelp", "Number", "NUMBERS", "OUTPUTS", "ONLY_WITH", "validate", "option_given", "parse_model_options"]
 
 _MAX_SEED = 2**63 - 1
 
@@ -110,6 +110,31 @@ ONLY_WITH: dict[tuple[str, str], tuple[str, str]] = {
     ("energy", "--duration"): ("file", "--file"),
     ("energy", "--dt"): ("file", "--file"),
 }
+
+
+class ModelHelp(argparse.Action):
+    """``--help`` of a command with per-model options: the chosen model's options only.
+
+    ``model_parser(namespace)`` gives the parser of the model chosen by the options
+    parsed so far (``--model`` for ``train``, the run's model for ``eval``), or
+    ``None``; then the command's common options are shown with ``hint``.
+    """
+
+    def __init__(self, option_strings: Sequence[str], dest: str, *, model_parser: Any, hint: str, **_: Any) -> None:
+        super().__init__(option_strings, dest=argparse.SUPPRESS, default=argparse.SUPPRESS, nargs=0, help="show this help")
+        self.model_parser, self.hint = model_parser, hint
+
+    def __call__(self, parser: argparse.ArgumentParser, namespace: argparse.Namespace, *_: Any) -> None:
+        try:
+            chosen = self.model_parser(namespace)
+        except NeurovprError as exc:
+            parser.exit(2, f"{parser.prog}: error: {exc}\n")
+        if chosen is None:
+            parser.print_help()
+            print(f"\n{self.hint}")
+        else:
+            chosen.print_help()
+        parser.exit(0)
 
 
 def option_given(argv: Sequence[str], flag: str) -> bool:

@@ -94,7 +94,6 @@ def run_time_step(run_dir: str | Path) -> tuple[float, str] | None:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
         raise ValidationError(f"{path}: time step {RUN_DT_KEY} must be a positive number of ms, got {value!r}.")
     return float(value), f"{path} {RUN_DT_KEY}"
-    return None
 
 
 def run(args: argparse.Namespace) -> int:

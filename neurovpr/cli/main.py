@@ -49,7 +49,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
     parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra and not getattr(args, "model_options", False):
+        parser.parse_args(argv)  # argparse's own one-line refusal of the unknown arguments
     args.argv = argv
     try:
         validate(args, args.command, argv)
