@@ -8,7 +8,9 @@ MATLAB files of already binned spikes (:func:`read_pn_mat`, arrays ``t`` and ``i
 
 from __future__ import annotations
 
+import io
 import os
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -172,6 +174,36 @@ def stretch_time(spikes: PNSpikes, factor: float) -> PNSpikes:
 _MAT73_RULES = HDF5Rules(what="PN spike file", filters=("gzip", "shuffle", "fletcher32"), strings=True)
 
 
+# What scipy.io raises on a damaged MATLAB file.
+_MAT_ERRORS = (
+    scipy.io.matlab.MatReadError, ValueError, TypeError, OSError, IndexError, KeyError, OverflowError, EOFError,
+    AttributeError, zlib.error,
+)  # fmt: skip
+
+
+def _loadmat_child(path: Path) -> dict[str, np.ndarray]:
+    _check_mat5_sizes(path)
+    return scipy.io.loadmat(io.BytesIO(path.read_bytes()), variable_names=["t", "idx"])
+
+
+def _loadmat_isolated(path: Path) -> dict[str, np.ndarray]:
+    """``scipy.io.loadmat`` of ``t`` and ``idx`` in a child process.
+
+    scipy's MATLAB v5 reader can crash the interpreter (SIGSEGV/SIGBUS) on some damaged
+    files, which no ``except`` catches; a crash of the child becomes one sentence here.
+    """
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures.process import BrokenProcessPool
+
+    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+    with ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context(method)) as pool:
+        try:
+            return pool.submit(_loadmat_child, path).result()
+        except BrokenProcessPool:
+            raise FileFormatError(f"PN spike file {str(path)!r} is damaged: the MATLAB reader crashed on it.") from None
+
+
 def _check_mat5_sizes(path: Path) -> None:
     """Refuse a MATLAB v5 file whose ``t``/``idx`` declare more values than the file or the memory limit holds."""
     variables = {name: shape for name, shape, _ in scipy.io.whosmat(path)}
@@ -191,14 +223,13 @@ def _check_mat5_sizes(path: Path) -> None:
 def _load_mat_arrays(path: Path) -> tuple[np.ndarray, np.ndarray]:
     try:
         try:
-            _check_mat5_sizes(path)
-            data = scipy.io.loadmat(path, variable_names=["t", "idx"])
+            data = _loadmat_isolated(path)
         except NotImplementedError:  # MATLAB v7.3 files are HDF5
             with open_hdf5(path, _MAT73_RULES) as fh:
                 data = {name: read_dataset(fh[name], str(path), _MAT73_RULES) for name in ("t", "idx") if name in fh}
     except (ValidationError, FileFormatError):
         raise
-    except (scipy.io.matlab.MatReadError, ValueError, TypeError, OSError) as exc:
+    except _MAT_ERRORS as exc:
         raise FileFormatError(f"PN spike file {str(path)!r} is not a readable MATLAB file: {exc}.") from exc
     missing = [name for name in ("t", "idx") if name not in data]
     if missing:

@@ -24,6 +24,7 @@ from __future__ import annotations
 import os
 import re
 import zipfile
+import zlib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
@@ -56,6 +57,8 @@ _ALIASES = {"x": ("x",), "y": ("y",), "t": ("t", "ts", "timestamp"), "p": ("p", 
 _TIME_UNITS = {"ns": 1e-3, "us": 1.0, "ms": 1e3, "s": 1e6}
 #: What an event HDF5 file may hold: numbers, gzip/shuffle compression, nothing outside the file.
 _HDF5_RULES = HDF5Rules(what="events file", filters=("gzip", "shuffle"), strings=True)
+# What zipfile, zlib and numpy raise on a damaged archive.
+_ZIP_ERRORS = (zipfile.BadZipFile, OSError, EOFError, NotImplementedError, RuntimeError, ValueError, zlib.error)
 _SENSOR_RE = re.compile(r"#\s*sensor_size\s*[:=]\s*(\d+)\s*[x, ]\s*(\d+)", re.IGNORECASE)
 
 
@@ -209,7 +212,9 @@ def _check_npy_sizes(path: Path) -> None:
                     if info.filename.endswith(".npy"):
                         with archive.open(info) as fh:
                             total += _npy_bytes(path, fh, info.file_size, f"member {info.filename!r}")
-        except (zipfile.BadZipFile, OSError, EOFError) as exc:
+        except FileFormatError:
+            raise
+        except _ZIP_ERRORS as exc:
             raise FileFormatError(f"events file {str(path)!r} is not a readable npz archive ({exc}).") from None
     require_memory(total, f"reading events file {str(path)!r}")
 
@@ -246,7 +251,7 @@ def _load_npz(path: Path) -> tuple[dict[str, np.ndarray], tuple[int, int] | None
     try:
         with np.load(path, allow_pickle=False) as archive:
             data = {name: archive[name] for name in archive.files}
-    except ValueError as exc:
+    except _ZIP_ERRORS as exc:
         raise FileFormatError(f"events file {str(path)!r} is not a plain npz archive: {exc}.") from exc
     picked = _pick(path, tuple(data), "the archive")
     return {col: data[name] for col, name in picked.items()}, _scalar_size(path, data)
