@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import h5py
 import numpy as np
 
-from neurovpr.errors import FileFormatError
+from neurovpr.errors import FileFormatError, NeurovprError
 from neurovpr.resources import ResourceLimitError, format_bytes, memory_limit
 
 __all__ = ["FILTERS", "MAX_OBJECTS", "HDF5Rules", "open_hdf5", "read_dataset", "check_hdf5"]
@@ -189,7 +189,9 @@ def open_hdf5(path: str | os.PathLike[str], rules: HDF5Rules) -> Iterator[h5py.F
     ------
     FileFormatError
         When the file is missing, empty, not HDF5, damaged, or holds anything the
-        rules forbid; the sentence names the file and the object.
+        rules forbid; the sentence names the file and the object. h5py and OS errors
+        raised inside the ``with`` block (a dataset that cannot be decoded) become
+        such a sentence too.
     """
     target = os.fspath(path)
     if not os.path.exists(target):
@@ -214,7 +216,12 @@ def open_hdf5(path: str | os.PathLike[str], rules: HDF5Rules) -> Iterator[h5py.F
             raise
         except _READ_ERRORS as exc:
             raise _fail(target, rules, f"is corrupted or unreadable ({_reason(exc)})") from None
-        yield f
+        try:
+            yield f
+        except NeurovprError:
+            raise
+        except _READ_ERRORS as exc:  # a dataset that passed the checks but cannot be decoded
+            raise _fail(target, rules, f"is corrupted or unreadable ({_reason(exc)})") from None
 
 
 def read_dataset(ds: h5py.Dataset, path: str, rules: HDF5Rules) -> np.ndarray:

@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 import scipy.io
 
-from neurovpr.errors import FileFormatError, ValidationError
+from neurovpr.errors import FileFormatError, NeurovprError, ValidationError
 from neurovpr.hdf5 import HDF5Rules, open_hdf5, read_dataset
 from neurovpr.ir.cells import SpikeSourceArray
 from neurovpr.ir.node import IRNode, freeze_array, param
@@ -202,6 +202,12 @@ def _loadmat_isolated(path: Path) -> dict[str, np.ndarray]:
             return pool.submit(_loadmat_child, path).result()
         except BrokenProcessPool:
             raise FileFormatError(f"PN spike file {str(path)!r} is damaged: the MATLAB reader crashed on it.") from None
+        except (NeurovprError, NotImplementedError):  # NotImplementedError: a v7.3 (HDF5) file, read by the caller
+            raise
+        except Exception as exc:  # scipy's parser fails on damaged files with any exception type
+            raise FileFormatError(
+                f"PN spike file {str(path)!r} is not a readable MATLAB file ({type(exc).__name__}: {exc})."
+            ) from None
 
 
 def _check_mat5_sizes(path: Path) -> None:
