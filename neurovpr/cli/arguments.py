@@ -180,7 +180,7 @@ def parse_model_options(parser: argparse.ArgumentParser, argv: Sequence[str], co
         flag = next((a for a in extra if a.startswith("-")), extra[0])
         raise ValidationError(
             f"{flag.split('=')[0]} does not apply to model {model!r} "
-            f"(neurovpr {command} --model {model} --help lists its options)."
+            f"(neurovpr {command} {'--model ' + model if command == 'train' else '--run RUN_DIR'} --help lists its options)."
             if flag.startswith("-")
             else f"unexpected argument {flag!r}."
         )

@@ -105,6 +105,13 @@ def test_bad_arguments_exit_2_with_one_line(argv, pattern, network_file, tmp_pat
     assert not [p for p in tmp_path.rglob("*") if is_temp_name(p.name)]
 
 
+def test_eval_checks_the_run_model_options(tmp_path, capsys) -> None:
+    (tmp_path / "run.json").write_text('{"model": "mbsnn", "backend": "reference", "seed": 0}')
+    run = ["eval", "--run", str(tmp_path)]
+    _refused([*run, "--windows", "1000000000"], capsys, "--windows is 1000000000; it must be an integer >= 1 and <= 1e+06")
+    _refused([*run, "--neurons", "5"], capsys, "--neurons does not apply to model 'mbsnn' (neurovpr eval --run RUN_DIR --help")
+
+
 def test_train_refuses_a_module_past_the_memory_limit(tmp_path, capsys) -> None:
     line = _refused(
         [
