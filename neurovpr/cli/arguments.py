@@ -24,6 +24,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
+from neurovpr.apps.rundir import NETWORK_FILE, RUN_FILE
 from neurovpr.errors import NeurovprError, ValidationError
 from neurovpr.fileio import check_output
 
@@ -150,7 +151,7 @@ def _inputs(args: argparse.Namespace) -> list[Path]:
     paths = [Path(v) for name in _INPUTS if isinstance(v := getattr(args, name, None), (str, Path))]
     run = getattr(args, "run", None)
     if isinstance(run, (str, Path)):
-        paths += [Path(run) / "network.h5", Path(run) / "run.json"]
+        paths += [Path(run) / NETWORK_FILE, Path(run) / RUN_FILE]
     return paths
 
 
