@@ -22,6 +22,7 @@ from neurovpr.errors import (
     ValidationError,
 )
 from neurovpr.ir.cells import (
+    NO_LEAK,
     IF_cond_exp,
     IF_cond_exp_adaptive,
     IF_curr_exp,
@@ -58,6 +59,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "AdditiveWeightDependence",
+    "NO_LEAK",
     "AllToAllConnector",
     "BackendUnavailableError",
     "Connections",

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from neurovpr.evaluation.plots import plot_roc_curves
+from neurovpr.fileio import save_figure
 
 __all__ = ["plot_mbon_traces", "plot_roc_curves", "plot_familiarity"]
 
@@ -28,11 +29,8 @@ def _figure(width: float, height: float):
 
 
 def _save(fig, path: str | Path) -> Path:
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    fig.savefig(path, format="png")
-    return path
+    return save_figure(fig, path)
 
 
 def _positions(n: int) -> np.ndarray:

@@ -31,6 +31,7 @@ import neurovpr as nv
 from neurovpr.apps.modelapi import ModelPlugin, read_run_info
 from neurovpr.data.encoding import RateCoding
 from neurovpr.fileio import atomic_write_text
+from neurovpr.resources import check_network
 
 from .deployment import deployed_network, deployment_form, static_network
 from .network import ModuleParameters
@@ -205,6 +206,7 @@ class ModularSNNPlugin(ModelPlugin):
             assignment_presentations=int(opt["assignment_presentations"]),
         )
         chosen.check_network(settings.network("modular_snn_module"))
+        check_network(settings.network("modular_snn_module"), dt=settings.dt, what="train", copies=workers)
         traverse = load_traverse(args.data, opt["places"])
         if len(traverse.references) > 1:
             print(

@@ -35,8 +35,9 @@ presentations over all traverses (VPRSNN's ``get_new_assignments`` on the traini
 hyperactive activity is counted over the main reference traverse, as VPRSNN's ``record``
 mode shows the first training traverse.
 
-Resume. A module counts as finished when its ``.npz`` record exists (it is written
-after the network file, both atomically) and carries the fingerprint of the same job
+Resume. A module counts as finished when its ``.npz`` record and network file both read
+back whole (:func:`neurovpr.apps.rundir.damaged_part`: CRC-32 of the record's members, the
+network file's checksum; a damaged one is named and trained again) and the record carries the fingerprint of the same job
 (settings, data including every extra traverse's images, places, seed); a record with
 another fingerprint is refused rather than mixed in. Because every module depends only on its own seed, a resumed run gives
 bit-identical files and results to an uninterrupted one on the same backend and machine.
@@ -47,6 +48,7 @@ from __future__ import annotations
 import hashlib
 import json
 import math
+import sys
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -56,6 +58,7 @@ from typing import Any
 import numpy as np
 
 import neurovpr as nv
+from neurovpr.apps.rundir import damaged_part
 from neurovpr.data.ground_truth import GroundTruth
 from neurovpr.fileio import atomic_write_bytes, atomic_write_text
 
@@ -226,8 +229,12 @@ def _finished(run_dir: Path, job: ModulePlan, fingerprint: str) -> bool:
     rec_path = _modules_dir(run_dir) / f"{job.name}.npz"
     if not rec_path.is_file():
         return False
-    if not (_modules_dir(run_dir) / f"{job.name}.h5").is_file():
-        return False
+    for part in (rec_path, _modules_dir(run_dir) / f"{job.name}.h5"):
+        problem = damaged_part(part)
+        if problem is not None:
+            if problem != "missing":
+                print(f"note: {part} is damaged ({problem}); module {job.name} is trained again.", file=sys.stderr)
+            return False
     found = str(read_npz(rec_path).get("fingerprint", ""))
     if found != fingerprint:
         raise nv.ValidationError(

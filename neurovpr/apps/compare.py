@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from neurovpr.apps import modelapi
+from neurovpr.apps.rundir import NETWORK_FILE
 from neurovpr.errors import BackendUnavailableError, UnsupportedFeatureError, ValidationError
 from neurovpr.runtime import registry
 
@@ -48,7 +49,7 @@ __all__ = [
 
 #: Metrics shown in the table and the plot when the model reports them, in this order.
 PRIMARY_METRICS = ("R@1", "P@100R", "AUC_PR", "AUC_ROC")
-_NETWORK_FILE = "network.h5"
+_NETWORK_FILE = NETWORK_FILE
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)

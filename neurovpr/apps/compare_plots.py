@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from neurovpr.errors import ValidationError
+from neurovpr.fileio import save_figure
 
 if TYPE_CHECKING:
     from neurovpr.apps.compare import Comparison
@@ -85,11 +85,4 @@ def plot_comparison(comparison: Comparison, path: str | Path) -> Path:
                         rotation=90, color="tab:red", fontsize=8)  # fmt: skip
     fig.suptitle(f"{comparison.model} on {len(rows)} backends ({comparison.run})", fontsize=9)
     fig.tight_layout()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{time.monotonic_ns()}.tmp.png")
-    try:
-        fig.savefig(tmp, format="png")
-        tmp.replace(path)
-    finally:
-        tmp.unlink(missing_ok=True)
-    return path
+    return save_figure(fig, path)

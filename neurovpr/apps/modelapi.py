@@ -18,6 +18,7 @@ import json
 from pathlib import Path
 from typing import Any
 
+from neurovpr.apps.rundir import RUN_FILE
 from neurovpr.errors import BackendUnavailableError, ValidationError
 
 __all__ = ["ModelPlugin", "MODEL_ENTRY_POINT_GROUP", "model_names", "get_model", "read_run_info"]
@@ -86,7 +87,7 @@ def get_model(name: str) -> ModelPlugin:
 
 def read_run_info(run_dir: str | Path) -> dict[str, Any]:
     """Read and check ``RUN_DIR/run.json``."""
-    path = Path(run_dir) / "run.json"
+    path = Path(run_dir) / RUN_FILE
     if not path.is_file():
         raise ValidationError(f"Run directory {str(run_dir)!r} has no run.json (was it written by neurovpr train?).")
     try:

@@ -8,10 +8,9 @@ import math
 from pathlib import Path
 from typing import Any
 
+from neurovpr.apps.rundir import NETWORK_FILE, RUN_FILE
 from neurovpr.errors import ValidationError
 from neurovpr.ir.network import Network
-
-NETWORK_FILE = "network.h5"
 
 #: The key of ``run.json`` that records the time step (ms) a run's network runs at (every model writes it).
 RUN_DT_KEY = "dt_ms"
@@ -84,7 +83,7 @@ def run_time_step(run_dir: str | Path) -> tuple[float, str] | None:
     """
     from neurovpr.apps.modelapi import read_run_info
 
-    path = Path(run_dir) / "run.json"
+    path = Path(run_dir) / RUN_FILE
     if not path.is_file():
         return None
     info: Any = read_run_info(run_dir)
@@ -94,7 +93,6 @@ def run_time_step(run_dir: str | Path) -> tuple[float, str] | None:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
         raise ValidationError(f"{path}: time step {RUN_DT_KEY} must be a positive number of ms, got {value!r}.")
     return float(value), f"{path} {RUN_DT_KEY}"
-    return None
 
 
 def run(args: argparse.Namespace) -> int:

@@ -6,7 +6,8 @@ import argparse
 import json
 from pathlib import Path
 
-from neurovpr.apps.modelapi import get_model, model_names, read_run_info
+from neurovpr.apps.modelapi import get_model, read_run_info
+from neurovpr.cli.arguments import ModelHelp, parse_model_options
 from neurovpr.cli.main import _Parser
 
 
@@ -19,25 +20,28 @@ def _common(p: argparse.ArgumentParser) -> None:
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    """Register the subcommand; every installed model's options are listed in ``--help``."""
-    p = sub.add_parser("eval", help="evaluate a trained run", conflict_handler="resolve")
+    """Register the subcommand; the run's model options are parsed in :func:`run`."""
+    p = sub.add_parser("eval", help="evaluate a trained run", add_help=False)
+    hint = "The run's model has its own options: neurovpr eval --run RUN_DIR --help lists them."
+    p.add_argument("-h", "--help", action=ModelHelp, model_parser=lambda ns: _model_parser(ns.run) if ns.run else None, hint=hint)
     _common(p)
-    for name in model_names():
-        try:
-            get_model(name).add_eval_arguments(p.add_argument_group(f"{name} options"))  # type: ignore[arg-type]
-        except Exception:
-            continue
-    p.set_defaults(handler=run)
+    p.set_defaults(handler=run, model_options=True)
+
+
+def _model_parser(run_dir: Path) -> argparse.ArgumentParser:
+    """The eval options of the model that wrote ``run_dir`` (named in its ``run.json``)."""
+    name = read_run_info(run_dir)["model"]
+    parser = _Parser(prog="neurovpr eval")
+    _common(parser)
+    get_model(name).add_eval_arguments(parser.add_argument_group(f"{name} options"))  # type: ignore[arg-type]
+    return parser
 
 
 def run(args: argparse.Namespace) -> int:
     """Dispatch to the model named in the run directory, parsing that model's options only."""
     info = read_run_info(args.run)
     model = get_model(info["model"])
-    parser = _Parser(prog="neurovpr eval")
-    _common(parser)
-    model.add_eval_arguments(parser.add_argument_group(f"{info['model']} options"))  # type: ignore[arg-type]
-    args = parser.parse_args(args.argv[1:])
+    args = parse_model_options(_model_parser(args.run), args.argv[1:], "eval", info["model"])
     result = model.evaluate(args, info)
     if args.json:
         print(json.dumps(result))

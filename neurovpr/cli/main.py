@@ -12,6 +12,7 @@ import importlib
 import sys
 from collections.abc import Sequence
 
+from neurovpr.cli.arguments import validate
 from neurovpr.errors import NeurovprError
 
 #: Subcommand modules, in the order ``--help`` lists them.
@@ -21,11 +22,10 @@ EXIT_OK, EXIT_FAILED, EXIT_BAD_INPUT = 0, 1, 2
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse exits 2 on bad arguments already; keep its message to one line."""
+    """argparse exits 2 on bad arguments already; keep its message to one line (``--help`` shows the usage)."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
-        self.print_usage(sys.stderr)
-        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message}\n")
+        self.exit(EXIT_BAD_INPUT, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -49,9 +49,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code."""
     parser = build_parser()
     argv = list(sys.argv[1:] if argv is None else argv)
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra and not getattr(args, "model_options", False):
+        parser.parse_args(argv)  # argparse's own one-line refusal of the unknown arguments
     args.argv = argv
     try:
+        validate(args, args.command, argv)
         return int(args.handler(args))
     except NeurovprError as exc:
         print(f"neurovpr {args.command}: error: {exc}", file=sys.stderr)

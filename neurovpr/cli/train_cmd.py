@@ -4,11 +4,14 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from collections.abc import Sequence
 from pathlib import Path
 
 from neurovpr.apps.modelapi import ModelPlugin, get_model, model_names
+from neurovpr.cli.arguments import ModelHelp, parse_model_options
 from neurovpr.cli.main import _Parser
+from neurovpr.fileio import remove_stale_temps
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -22,16 +25,29 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
 
 
+def _help(parser: argparse.ArgumentParser) -> None:
+    def chosen(namespace: argparse.Namespace) -> argparse.ArgumentParser | None:
+        name = getattr(namespace, "model", None)
+        return None if name is None else _model_parser(get_model(name))
+
+    hint = f"Each model has its own options: neurovpr train --model NAME --help (NAME: {', '.join(model_names())})."
+    parser.add_argument("-h", "--help", action=ModelHelp, model_parser=chosen, hint=hint)
+
+
+def _model_parser(plugin: ModelPlugin) -> argparse.ArgumentParser:
+    parser = _Parser(prog="neurovpr train", add_help=False)
+    _help(parser)
+    _common(parser)
+    plugin.add_train_arguments(parser.add_argument_group(f"{plugin.name} options"))  # type: ignore[arg-type]
+    return parser
+
+
 def add_parser(sub: argparse._SubParsersAction) -> None:
-    """Register the subcommand; every installed model's options are listed in ``--help``."""
-    p = sub.add_parser("train", help="train a model and write a run directory", conflict_handler="resolve")
+    """Register the subcommand; the chosen model's options are parsed (and listed by ``--help``) in :func:`run`."""
+    p = sub.add_parser("train", help="train a model and write a run directory", add_help=False)
+    _help(p)
     _common(p)
-    for name in model_names():
-        try:
-            get_model(name).add_train_arguments(p.add_argument_group(f"{name} options"))  # type: ignore[arg-type]
-        except Exception:
-            continue
-    p.set_defaults(handler=run)
+    p.set_defaults(handler=run, model_options=True)
 
 
 def parse_train_arguments(model: ModelPlugin | str, argv: Sequence[str]) -> tuple[ModelPlugin, argparse.Namespace]:
@@ -42,10 +58,7 @@ def parse_train_arguments(model: ModelPlugin | str, argv: Sequence[str]) -> tupl
     Benchmarks and tests use it to train exactly as the command line does.
     """
     plugin = get_model(model) if isinstance(model, str) else model
-    parser = _Parser(prog="neurovpr train")
-    _common(parser)
-    plugin.add_train_arguments(parser.add_argument_group(f"{plugin.name} options"))  # type: ignore[arg-type]
-    return plugin, parser.parse_args(list(argv))
+    return plugin, parse_model_options(_model_parser(plugin), argv, "train", plugin.name)
 
 
 def model_arguments(args: argparse.Namespace) -> tuple[ModelPlugin, argparse.Namespace]:
@@ -56,6 +69,9 @@ def model_arguments(args: argparse.Namespace) -> tuple[ModelPlugin, argparse.Nam
 def run(args: argparse.Namespace) -> int:
     """Dispatch to the chosen model."""
     model, margs = model_arguments(args)
+    removed = remove_stale_temps(margs.out)
+    if removed:
+        print(f"note: removed {len(removed)} temporary file(s) a killed run left in {margs.out}.", file=sys.stderr)
     summary = model.train(margs)
     if margs.json:
         print(json.dumps(summary))

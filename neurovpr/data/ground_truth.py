@@ -10,6 +10,7 @@ Recall@N and of the precision-recall curve).
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
@@ -149,6 +150,9 @@ class GroundTruth:
         return np.stack([q[order], r[order]], axis=1)
 
 
+_INDEX = re.compile(r"-?[0-9]{1,18}")
+
+
 def read_pairs_csv(path: str | Path, n_reference: int, n_query: int) -> GroundTruth:
     """Read a ``query_index,reference_index`` CSV (0-based, one pair per line).
 
@@ -169,7 +173,7 @@ def read_pairs_csv(path: str | Path, n_reference: int, n_query: int) -> GroundTr
         fields = [f.strip() for f in line.split(",")]
         if lineno == 1 and fields == ["query_index", "reference_index"]:
             continue
-        if len(fields) != 2 or not all(f.lstrip("-").isdigit() for f in fields):
+        if len(fields) != 2 or not all(_INDEX.fullmatch(f) for f in fields):
             raise ValidationError(
                 f"ground-truth file {path} line {lineno} is {line!r}, expected 'query_index,reference_index' as two integers."
             )

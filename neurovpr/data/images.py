@@ -17,10 +17,49 @@ import numpy as np
 
 from neurovpr.errors import ValidationError
 
-__all__ = ["IMAGE_SUFFIXES", "is_image_file", "read_image", "check_image_array"]
+__all__ = ["IMAGE_SUFFIXES", "MAX_IMAGE_PIXELS", "is_image_file", "image_size", "read_image", "check_image_array"]
 
 #: File name endings read as images (compared case-insensitively).
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".ppm", ".pgm", ".pnm", ".webp")
+
+
+#: Most pixels one image file may declare (Pillow's own decompression-bomb limit); larger files are refused.
+MAX_IMAGE_PIXELS = 89_478_485
+
+
+def image_size(path: str | Path) -> tuple[int, int]:
+    """``(width, height)`` of an image file from its header, without decoding the pixels.
+
+    Raises
+    ------
+    ValidationError
+        When the file is missing, empty, not a decodable image, declares more than
+        :data:`MAX_IMAGE_PIXELS` pixels, or is smaller than 2 x 2 pixels.
+    """
+    from PIL import Image, UnidentifiedImageError
+
+    path = Path(path)
+    if not path.is_file():
+        raise ValidationError(f"image file {path} does not exist.")
+    if path.stat().st_size == 0:
+        raise ValidationError(f"image file {path} is empty (0 bytes).")
+    try:
+        with Image.open(path) as opened:
+            width, height = opened.size
+    except Image.DecompressionBombError as exc:
+        raise ValidationError(
+            f"image file {path} declares more than the limit of {MAX_IMAGE_PIXELS} pixels per image ({exc})"
+        ) from None
+    except (UnidentifiedImageError, OSError, ValueError, SyntaxError) as exc:
+        raise ValidationError(f"file {path} is not a readable image ({type(exc).__name__}: {exc}).") from None
+    if width * height > MAX_IMAGE_PIXELS:
+        raise ValidationError(
+            f"image file {path} is {width}x{height} pixels ({width * height}), more than the limit of "
+            f"{MAX_IMAGE_PIXELS} pixels per image."
+        )
+    if width < 2 or height < 2:
+        raise ValidationError(f"image file {path} is {width}x{height} pixels; an image needs at least 2x2 pixels.")
+    return int(width), int(height)
 
 
 def is_image_file(path: str | Path) -> bool:
@@ -40,8 +79,7 @@ def read_image(path: str | Path) -> np.ndarray:
     from PIL import Image, ImageOps, UnidentifiedImageError
 
     path = Path(path)
-    if not path.is_file():
-        raise ValidationError(f"image file {path} does not exist.")
+    image_size(path)
     try:
         with Image.open(path) as opened:
             opened.load()

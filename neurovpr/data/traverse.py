@@ -12,6 +12,7 @@ spring and fall) are aligned by index: ``references[k][i]`` shows place ``i``.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -19,10 +20,25 @@ from pathlib import Path
 import numpy as np
 
 from neurovpr.data.ground_truth import GroundTruth
-from neurovpr.data.images import check_image_array, read_image
+from neurovpr.data.images import check_image_array, image_size, read_image
 from neurovpr.errors import ValidationError
 
 __all__ = ["ImageSet", "Traverse"]
+
+
+def _check_sizes(name: str, paths: tuple[Path, ...]) -> None:
+    """Read every image's header (no pixels): refuse unreadable ones, warn once when sizes differ."""
+    first = image_size(paths[0])
+    sizes = [image_size(path) for path in paths[1:]]
+    for path, size in zip(paths[1:], sizes, strict=True):
+        if size != first:
+            warnings.warn(
+                f"image set {name!r}: {path} is {size[0]}x{size[1]} pixels, {paths[0]} is {first[0]}x{first[1]}; "
+                "images of different sizes are each resized to the model's input size.",
+                UserWarning,
+                stacklevel=4,
+            )
+            break
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
@@ -49,6 +65,7 @@ class ImageSet:
                 raise ValidationError(
                     f"image set {self.name!r} lists {len(missing)} missing file(s), the first being {missing[0]}."
                 )
+            _check_sizes(self.name, paths)
             object.__setattr__(self, "paths", paths)
         else:
             arr = np.asarray(self.array)

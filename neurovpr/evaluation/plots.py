@@ -14,6 +14,7 @@ import numpy as np
 
 from neurovpr.errors import ValidationError
 from neurovpr.evaluation.metrics import PRCurve, check_distances, ground_truth_matrix
+from neurovpr.fileio import save_figure
 
 __all__ = ["plot_distance_matrix", "plot_pr_curves", "plot_recall_at_n", "plot_roc_curves"]
 
@@ -31,10 +32,8 @@ def _save(fig, path: str | Path) -> Path:
     path = Path(path)
     if path.suffix.lower() != ".png":
         raise ValidationError(f"plot path {path} must end in .png.")
-    path.parent.mkdir(parents=True, exist_ok=True)
     fig.tight_layout()
-    fig.savefig(path, format="png")
-    return path
+    return save_figure(fig, path)
 
 
 def plot_distance_matrix(distances: np.ndarray, path: str | Path, *, ground_truth=None, title: str = "Distance matrix") -> Path:

@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import Any
 
 from neurovpr.errors import ValidationError
+from neurovpr.fileio import atomic_write_text
 from neurovpr.ir.network import Network
 
 from .hwspec import HwSpec, load_hwspec
@@ -128,9 +129,7 @@ def write_activity(
     path = Path(run_dir)
     path.mkdir(parents=True, exist_ok=True)
     target = path / ACTIVITY_FILE
-    tmp = target.with_suffix(".json.tmp")
-    tmp.write_text(json.dumps(data, indent=2) + "\n", encoding="utf-8")
-    os.replace(tmp, target)
+    atomic_write_text(target, json.dumps(data, indent=2) + "\n")
     return target
 
 

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from neurovpr.fileio import save_figure
+
 from .check import CheckReport
 
 __all__ = ["plot_utilisation"]
@@ -72,8 +74,7 @@ def plot_utilisation(report: CheckReport, path: str | os.PathLike) -> Path:
     fig.suptitle(f"{report.network} on {report.spec.title}: {len(cores)} cores, {report.partition.chips} chip(s), "
                  f"{verdict}")
     fig.tight_layout()
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=100)
-    plt.close(fig)
-    return out
+    try:
+        return save_figure(fig, path, dpi=100)
+    finally:
+        plt.close(fig)

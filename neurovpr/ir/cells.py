@@ -28,7 +28,13 @@ __all__ = [
     "SpikeSourcePoisson",
     "SpikeSourceArray",
     "CELL_TYPES",
+    "NO_LEAK",
 ]
+
+#: ``tau_m`` of a membrane without leak (ms): ``exp(-dt / NO_LEAK)`` is exactly 1 for any step.
+#: ``inf`` is refused, so a typing mistake cannot simulate as NaN; write ``tau_m=nv.NO_LEAK``.
+NO_LEAK = 1e30
+_NO_LEAK_HINT = "for a membrane without leak write tau_m=nv.NO_LEAK"
 
 _KW = {"frozen": True, "slots": True, "kw_only": True, "eq": False}
 
@@ -89,13 +95,13 @@ class IF_curr_exp(NeuronType):  # noqa: N801 - PyNN's name
     """
 
     cm: float = param(1.0, unit="nF", low=0.0, low_open=True, array=True)
-    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True)
+    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True, hint=_NO_LEAK_HINT)
     tau_refrac: float = param(0.1, unit="ms", low=0.0, array=True)
     tau_syn_E: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
     tau_syn_I: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
     v_rest: float = param(-65.0, unit="mV", array=True)
     v_reset: float = param(-65.0, unit="mV", array=True)
-    v_thresh: float = param(-50.0, unit="mV", array=True)
+    v_thresh: float = param(-50.0, unit="mV", array=True, infinite="never fires")
     i_offset: float = param(0.0, unit="nA", array=True)
 
 
@@ -110,7 +116,7 @@ class IF_cond_exp(NeuronType):  # noqa: N801 - PyNN's name
     recordable = ("v", "gsyn_exc", "gsyn_inh")
 
     cm: float = param(1.0, unit="nF", low=0.0, low_open=True, array=True)
-    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True)
+    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True, hint=_NO_LEAK_HINT)
     tau_refrac: float = param(0.1, unit="ms", low=0.0, array=True)
     tau_syn_E: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
     tau_syn_I: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
@@ -118,7 +124,7 @@ class IF_cond_exp(NeuronType):  # noqa: N801 - PyNN's name
     e_rev_I: float = param(-70.0, unit="mV", array=True)
     v_rest: float = param(-65.0, unit="mV", array=True)
     v_reset: float = param(-65.0, unit="mV", array=True)
-    v_thresh: float = param(-50.0, unit="mV", array=True)
+    v_thresh: float = param(-50.0, unit="mV", array=True, infinite="never fires")
     i_offset: float = param(0.0, unit="nA", array=True)
 
 
@@ -141,7 +147,7 @@ class IF_cond_exp_adaptive(NeuronType):  # noqa: N801 - PyNN-style name
     recordable = ("v", "gsyn_exc", "gsyn_inh", "theta")
 
     cm: float = param(1.0, unit="nF", low=0.0, low_open=True, array=True)
-    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True)
+    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True, hint=_NO_LEAK_HINT)
     tau_refrac: float = param(0.1, unit="ms", low=0.0, array=True)
     tau_lockout: float = param(
         0.0, unit="ms", low=0.0, array=True, doc="time after a spike before the next may come (membrane free after tau_refrac)"
@@ -152,7 +158,7 @@ class IF_cond_exp_adaptive(NeuronType):  # noqa: N801 - PyNN-style name
     e_rev_I: float = param(-70.0, unit="mV", array=True)
     v_rest: float = param(-65.0, unit="mV", array=True)
     v_reset: float = param(-65.0, unit="mV", array=True)
-    v_thresh: float = param(-50.0, unit="mV", array=True)
+    v_thresh: float = param(-50.0, unit="mV", array=True, infinite="never fires")
     i_offset: float = param(0.0, unit="nA", array=True)
     theta_plus: float = param(0.05, unit="mV", low=0.0, array=True)
     tau_theta: float = param(1e7, unit="ms", low=0.0, low_open=True, array=True)
@@ -171,13 +177,13 @@ class IF_curr_exp_ca2_adaptive(NeuronType):  # noqa: N801 - sPyNNaker's name
     recordable = ("v", "isyn_exc", "isyn_inh", "i_ca2")
 
     cm: float = param(1.0, unit="nF", low=0.0, low_open=True, array=True)
-    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True)
+    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True, hint=_NO_LEAK_HINT)
     tau_refrac: float = param(0.1, unit="ms", low=0.0, array=True)
     tau_syn_E: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
     tau_syn_I: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
     v_rest: float = param(-65.0, unit="mV", array=True)
     v_reset: float = param(-65.0, unit="mV", array=True)
-    v_thresh: float = param(-50.0, unit="mV", array=True)
+    v_thresh: float = param(-50.0, unit="mV", array=True, infinite="never fires")
     i_offset: float = param(0.0, unit="nA", array=True)
     tau_ca2: float = param(50.0, unit="ms", low=0.0, low_open=True, array=True)
     i_ca2: float = param(0.0, unit="nA", array=True)
@@ -209,7 +215,7 @@ class SpikeSourcePoisson(SourceType):
 
     rate: float = param(0.0, unit="Hz", low=0.0, array=True)
     start: float = param(0.0, unit="ms", low=0.0)
-    duration: float = param(math.inf, unit="ms", low=0.0)
+    duration: float = param(math.inf, unit="ms", low=0.0, infinite="for ever")
 
 
 def _spike_trains(spike_times: Any) -> tuple[list[np.ndarray], bool]:

@@ -17,7 +17,7 @@ import numpy as np
 
 from neurovpr.errors import ValidationError
 
-__all__ = ["IRNode", "param", "freeze_array", "field_values"]
+__all__ = ["IRNode", "UnknownParameterError", "param", "freeze_array", "field_values"]
 
 
 def param(
@@ -29,6 +29,8 @@ def param(
     low_open: bool = False,
     integer: bool = False,
     array: bool = False,
+    infinite: str = "",
+    hint: str = "",
     doc: str = "",
 ) -> Any:
     """Declare a numeric IR field with its unit and allowed range.
@@ -45,6 +47,12 @@ def param(
         The value must be integral.
     array
         The value may also be a 1-D array with one entry per neuron.
+    infinite
+        What ``+inf`` means for this field (e.g. ``"never fires"``); empty (the
+        default): every value must be finite, so an ``inf`` typed by mistake is
+        refused at construction instead of simulating as NaN.
+    hint
+        Added to the refusal of a non-finite value (e.g. the spelling of "no leak").
     doc
         One-line description, used in generated documentation and error messages.
     """
@@ -55,6 +63,8 @@ def param(
         "low_open": low_open,
         "integer": integer,
         "array": array,
+        "infinite": infinite,
+        "hint": hint,
         "numeric": True,
         "doc": doc,
     }
@@ -75,8 +85,9 @@ def _fmt(value: Any) -> str:
 
 
 def _check_number(owner: str, name: str, value: float, meta: Mapping[str, Any]) -> None:
-    if not math.isfinite(value) and not (math.isinf(value) and meta["high"] is None and value > 0):
-        raise ValidationError(f"{owner}.{name} must be a finite number, got {value!r}.")
+    if not math.isfinite(value) and not (value == math.inf and meta.get("infinite")):
+        hint = f" ({meta['hint']})" if meta.get("hint") else ""
+        raise ValidationError(f"{owner}.{name} must be a finite number, got {value!r}{hint}.")
     low, high = meta["low"], meta["high"]
     unit = f" {meta['unit']}" if meta["unit"] else ""
     if low is not None:
@@ -118,6 +129,10 @@ def _coerce_numeric(owner: str, name: str, value: Any, meta: Mapping[str, Any]) 
     raise ValidationError(f"{owner}.{name} must be {kind}, got {_fmt(value)}.")
 
 
+class UnknownParameterError(ValidationError, TypeError):
+    """A keyword an IR type does not have (a ``TypeError`` too, as Python raises for unknown keywords)."""
+
+
 class IRNode:
     """Base class of the frozen IR dataclasses.
 
@@ -129,6 +144,15 @@ class IRNode:
     """
 
     __slots__ = ()
+
+    def __new__(cls, *args: Any, **kwargs: Any) -> IRNode:
+        names = {f.name for f in dataclasses.fields(cls) if f.init} if dataclasses.is_dataclass(cls) else set()
+        unknown = [k for k in kwargs if k not in names]
+        if names and unknown:
+            raise UnknownParameterError(
+                f"{cls.__name__} has no parameter {unknown[0]!r}; its parameters are {', '.join(sorted(names))}."
+            )
+        return super().__new__(cls)
 
     def __post_init__(self) -> None:
         owner = type(self).__name__

@@ -19,8 +19,11 @@ array, so a damaged file is detected rather than loaded with altered values.
 
 Loading never unpickles and never runs code from the file: only the registered IR
 classes can be built, through their normal constructors (so every validation runs
-again), datasets must be plain numeric arrays without filters, and any problem
-becomes one :class:`~neurovpr.errors.FileFormatError` sentence naming the file.
+again). The file is opened by the safe HDF5 reader (:mod:`neurovpr.hdf5`): nothing
+outside the file is read (no external storage, links or virtual datasets), datasets
+must be plain numeric arrays without filters whose declared sizes fit the file and
+the memory limit, and any problem becomes one
+:class:`~neurovpr.errors.FileFormatError` sentence naming the file.
 """
 
 from __future__ import annotations
@@ -31,7 +34,6 @@ import json
 import math
 import os
 import re
-import secrets
 from collections.abc import Mapping
 from types import MappingProxyType
 from typing import Any
@@ -40,6 +42,8 @@ import h5py
 import numpy as np
 
 from neurovpr.errors import FileFormatError, NeurovprError, ValidationError
+from neurovpr.fileio import OutputError, atomic_output
+from neurovpr.hdf5 import HDF5Rules, open_hdf5, read_dataset
 from neurovpr.ir.cells import CELL_TYPES
 from neurovpr.ir.connectors import CONNECTORS
 from neurovpr.ir.distributions import DISTRIBUTIONS
@@ -60,6 +64,8 @@ _ARRAY_KINDS = frozenset("biuf")
 _ARRAY_REF = re.compile(r"^/arrays/(0|[1-9][0-9]*)$")
 _NONFINITE = {"inf": math.inf, "-inf": -math.inf, "nan": math.nan}
 _MAX_DEPTH = 64
+# What a network file may hold: plain numeric datasets, text attributes, no filters, nothing outside the file.
+_RULES = HDF5Rules(what="Network file", filters=(), strings=True)
 # Exceptions an IR constructor may raise on values read from a file.
 _CONSTRUCT_ERRORS = (NeurovprError, TypeError, ValueError, AttributeError, IndexError, KeyError, OverflowError)
 # Exceptions h5py and the OS raise on unreadable or damaged files.
@@ -215,24 +221,11 @@ def save(obj: Network | Simulation, path: str | os.PathLike) -> None:
     folder = os.path.dirname(os.path.abspath(target))
     if not os.path.isdir(folder):
         raise _error(target, f"cannot be written: the folder {folder!r} does not exist")
-    tmp = os.path.join(folder, f".{os.path.basename(target)}.{secrets.token_hex(6)}.tmp")
-    created = False
     try:
-        os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
-        created = True
-        _write_file(tmp, network.name, graph, arrays)
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
-        os.replace(tmp, target)
-    except BaseException as exc:
-        if created:
-            try:
-                os.remove(tmp)
-            except OSError:
-                pass
-        if isinstance(exc, OSError):
-            raise _error(target, f"cannot be written ({_reason(exc)})") from None
-        raise
+        with atomic_output(target, make_parents=False) as tmp:
+            _write_file(os.fspath(tmp), network.name, graph, arrays)
+    except OutputError as exc:
+        raise _error(target, f"cannot be written ({exc.reason})") from None
 
 
 # -- reading --------------------------------------------------------------------------
@@ -247,28 +240,14 @@ def _attr_text(path: str, attrs: Any, key: str) -> str:
     return value
 
 
-def _read_dataset(path: str, group: h5py.Group, key: str, file_size: int) -> np.ndarray:
-    if not isinstance(group.get(key, getlink=True), h5py.HardLink) or not isinstance(group[key], h5py.Dataset):
-        raise _error(path, f"has an entry /arrays/{key} that is not a plain dataset")
+def _read_dataset(path: str, group: h5py.Group, key: str) -> np.ndarray:
     ds = group[key]
-    dt = ds.dtype
-    if (
-        dt.kind not in _ARRAY_KINDS
-        or dt.itemsize > 8
-        or h5py.check_vlen_dtype(dt) is not None
-        or h5py.check_string_dtype(dt) is not None
-    ):
-        raise _error(path, f"has a dataset /arrays/{key} of dtype {dt}; only plain numeric arrays are allowed")
-    if ds.id.get_create_plist().get_nfilters() != 0:
-        raise _error(path, f"has a filtered (compressed) dataset /arrays/{key}, which this format never writes")
-    if ds.size * dt.itemsize > file_size:
-        raise _error(path, f"is truncated or corrupted: dataset /arrays/{key} is larger than the file")
-    arr = np.array(ds[()], dtype=dt, copy=True)
-    arr.setflags(write=False)
-    return arr
+    if not isinstance(ds, h5py.Dataset) or ds.dtype.kind not in _ARRAY_KINDS:
+        raise _error(path, f"has an entry /arrays/{key} that is not a plain numeric dataset")
+    return read_dataset(ds, path, _RULES)
 
 
-def _read_contents(path: str, f: h5py.File, file_size: int) -> tuple[str, str, list[np.ndarray]]:
+def _read_contents(path: str, f: h5py.File) -> tuple[str, str, list[np.ndarray]]:
     attrs = f.attrs
     if "format" not in attrs:
         raise _error(path, "is an HDF5 file but not a neurovpr network file (it has no 'format' attribute)")
@@ -289,7 +268,7 @@ def _read_contents(path: str, f: h5py.File, file_size: int) -> tuple[str, str, l
     keys = list(group.keys())
     if sorted(keys) != sorted(str(i) for i in range(len(keys))):
         raise _error(path, "has /arrays entries that are not numbered 0, 1, 2, ...")
-    arrays = [_read_dataset(path, group, str(i), file_size) for i in range(len(keys))]
+    arrays = [_read_dataset(path, group, str(i)) for i in range(len(keys))]
     if _digest(name, graph, arrays) != digest:
         raise _error(path, "is corrupted: its content does not match the checksum stored in it")
     return name, graph, arrays
@@ -297,24 +276,15 @@ def _read_contents(path: str, f: h5py.File, file_size: int) -> tuple[str, str, l
 
 def _read_file(path: str) -> tuple[str, str, list[np.ndarray]]:
     """Read a file's name, graph text and arrays, or raise one FileFormatError."""
-    if not os.path.exists(path):
-        raise _error(path, "does not exist")
-    if os.path.isdir(path):
-        raise _error(path, "is a folder, not a file")
-    try:
-        size = os.path.getsize(path)
-        if size == 0:
-            raise _error(path, "is empty")
-        if not h5py.is_hdf5(path):
-            raise _error(path, "is not an HDF5 file")
-        with h5py.File(path, "r", locking=False) as f:
-            return _read_contents(path, f, size)
-    except FileFormatError:
-        raise
-    except _READ_ERRORS as exc:
-        reason = _reason(exc)
-        kind = "is truncated" if "truncated" in reason.lower() else "is corrupted or unreadable"
-        raise _error(path, f"{kind} ({reason})") from None
+    with open_hdf5(path, _RULES) as f:
+        try:
+            return _read_contents(path, f)
+        except FileFormatError:
+            raise
+        except _READ_ERRORS as exc:
+            reason = _reason(exc)
+            kind = "is truncated" if "truncated" in reason.lower() else "is corrupted or unreadable"
+            raise _error(path, f"{kind} ({reason})") from None
 
 
 # -- decoding -------------------------------------------------------------------------

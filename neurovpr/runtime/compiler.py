@@ -10,6 +10,7 @@ import numpy as np
 from neurovpr.errors import ValidationError
 from neurovpr.hardware.check import hardware_target
 from neurovpr.ir.network import Network
+from neurovpr.resources import check_network
 from neurovpr.runtime.registry import get_backend
 from neurovpr.runtime.simulation import Simulation
 
@@ -61,5 +62,6 @@ def compile(
         seed = int(np.random.SeedSequence().generate_state(1)[0])
     elif isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or not 0 <= seed < 2**63:
         raise ValidationError(f"compile: seed must be an integer in [0, 2**63), got {seed!r}.")
+    check_network(network, dt=float(dt), what="compile")
     target = None if hardware is None else hardware_target(network, hardware, dt=float(dt), seed=int(seed))
     return get_backend(backend).compile(network, dt=float(dt), seed=int(seed), hardware=target, **options)

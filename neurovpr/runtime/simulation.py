@@ -30,6 +30,7 @@ from neurovpr.ir.cells import IF_cond_exp_adaptive, SpikeSourceArray, SpikeSourc
 from neurovpr.ir.connectivity import resolved_seed
 from neurovpr.ir.connectors import ConvolutionConnector, FromListConnector
 from neurovpr.ir.network import Network
+from neurovpr.resources import estimate_network, require_work
 
 if TYPE_CHECKING:
     from neurovpr.hardware.check import HardwareTarget
@@ -64,6 +65,7 @@ class Simulation(ABC):
         self._hardware = hardware
         self._plastic = True
         self._recording: dict[tuple[str, str], np.ndarray] = {}
+        self._step_work = estimate_network(self._network, dt=self._dt).step_work
 
     # -- read-only facts ---------------------------------------------------
     @property
@@ -117,6 +119,13 @@ class Simulation(ABC):
         n_steps = round(duration / self._dt)
         if n_steps < 1 or abs(n_steps * self._dt - duration) > 1e-6 * max(1.0, duration):
             raise ValidationError(f"run: duration {duration!r} ms is not a whole number of {self._dt:g} ms steps.")
+        if inputs is not None and not isinstance(inputs, Mapping):
+            raise ValidationError(
+                f"run: inputs must be a mapping {{population name: rates or spike times}}, got {type(inputs).__name__}; "
+                f"the sources are {', '.join(repr(n) for n, p in self._network.populations.items() if p.is_source) or 'none'}."
+            )
+        what = f"run: {duration:g} ms ({n_steps} steps of {self._dt:g} ms) of network {self._network.name!r}"
+        require_work(n_steps * self._step_work, what)
         clean: dict[str, Any] = {}
         for name, value in (inputs or {}).items():
             clean[name] = self._check_input(name, value)

@@ -60,12 +60,11 @@ def test_bad_folders_fail_before_training(tmp_path, setup, needle):
         open_traverse(root)
 
 
-def test_non_image_with_image_name_fails_when_read(tmp_path):
+def test_non_image_with_image_name_is_refused_at_open(tmp_path):
     root = _make(tmp_path / "set", 2, 2)
     (root / "query" / "f001.png").write_text("not a png")
-    tr = open_traverse(root)
     with pytest.raises(ValidationError, match=r"f001\.png is not a readable image"):
-        tr.query.preprocessed()
+        open_traverse(root)  # every header is read at open, so train refuses it before any work
 
 
 def test_write_and_read_back_synthetic(tmp_path):

@@ -8,17 +8,20 @@ MATLAB files of already binned spikes (:func:`read_pn_mat`, arrays ``t`` and ``i
 
 from __future__ import annotations
 
+import io
 import os
+import zlib
 from dataclasses import dataclass
 from pathlib import Path
 
-import h5py
 import numpy as np
 import scipy.io
 
-from neurovpr.errors import FileFormatError, ValidationError
+from neurovpr.errors import FileFormatError, NeurovprError, ValidationError
+from neurovpr.hdf5 import HDF5Rules, open_hdf5, read_dataset
 from neurovpr.ir.cells import SpikeSourceArray
 from neurovpr.ir.node import IRNode, freeze_array, param
+from neurovpr.resources import require_memory
 
 __all__ = ["PNSpikes", "read_pn_mat", "stretch_time"]
 
@@ -167,14 +170,72 @@ def stretch_time(spikes: PNSpikes, factor: float) -> PNSpikes:
     )
 
 
+#: What a MATLAB v7.3 (HDF5) file may hold: numbers and text, MATLAB's compression, nothing outside the file.
+_MAT73_RULES = HDF5Rules(what="PN spike file", filters=("gzip", "shuffle", "fletcher32"), strings=True)
+
+
+# What scipy.io raises on a damaged MATLAB file.
+_MAT_ERRORS = (
+    scipy.io.matlab.MatReadError, ValueError, TypeError, OSError, IndexError, KeyError, OverflowError, EOFError,
+    AttributeError, zlib.error,
+)  # fmt: skip
+
+
+def _loadmat_child(path: Path) -> dict[str, np.ndarray]:
+    _check_mat5_sizes(path)
+    return scipy.io.loadmat(io.BytesIO(path.read_bytes()), variable_names=["t", "idx"])
+
+
+def _loadmat_isolated(path: Path) -> dict[str, np.ndarray]:
+    """``scipy.io.loadmat`` of ``t`` and ``idx`` in a child process.
+
+    scipy's MATLAB v5 reader can crash the interpreter (SIGSEGV/SIGBUS) on some damaged
+    files, which no ``except`` catches; a crash of the child becomes one sentence here.
+    """
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+    from concurrent.futures.process import BrokenProcessPool
+
+    method = "fork" if "fork" in multiprocessing.get_all_start_methods() else "spawn"
+    with ProcessPoolExecutor(max_workers=1, mp_context=multiprocessing.get_context(method)) as pool:
+        try:
+            return pool.submit(_loadmat_child, path).result()
+        except BrokenProcessPool:
+            raise FileFormatError(f"PN spike file {str(path)!r} is damaged: the MATLAB reader crashed on it.") from None
+        except (NeurovprError, NotImplementedError):  # NotImplementedError: a v7.3 (HDF5) file, read by the caller
+            raise
+        except Exception as exc:  # scipy's parser fails on damaged files with any exception type
+            raise FileFormatError(
+                f"PN spike file {str(path)!r} is not a readable MATLAB file ({type(exc).__name__}: {exc})."
+            ) from None
+
+
+def _check_mat5_sizes(path: Path) -> None:
+    """Refuse a MATLAB v5 file whose ``t``/``idx`` declare more values than the file or the memory limit holds."""
+    variables = {name: shape for name, shape, _ in scipy.io.whosmat(path)}
+    total = 0.0
+    for name in ("t", "idx"):
+        if name in variables:
+            values = float(np.prod(variables[name], dtype=np.float64))
+            total += values * 8
+            if values > path.stat().st_size * 1100:  # more than even compressed bytes can hold
+                raise FileFormatError(
+                    f"PN spike file {str(path)!r} is forged: array {name!r} declares {values:.3g} values "
+                    f"in a file of {path.stat().st_size} bytes."
+                )
+    require_memory(2 * total, f"reading PN spike file {str(path)!r} ({total / 8:.3g} values)")
+
+
 def _load_mat_arrays(path: Path) -> tuple[np.ndarray, np.ndarray]:
     try:
         try:
-            data = scipy.io.loadmat(path, variable_names=["t", "idx"])
+            data = _loadmat_isolated(path)
         except NotImplementedError:  # MATLAB v7.3 files are HDF5
-            with h5py.File(path, "r") as fh:
-                data = {name: np.asarray(fh[name][()]) for name in ("t", "idx") if name in fh}
-    except (scipy.io.matlab.MatReadError, ValueError, TypeError, OSError) as exc:
+            with open_hdf5(path, _MAT73_RULES) as fh:
+                data = {name: read_dataset(fh[name], str(path), _MAT73_RULES) for name in ("t", "idx") if name in fh}
+    except (ValidationError, FileFormatError):
+        raise
+    except _MAT_ERRORS as exc:
         raise FileFormatError(f"PN spike file {str(path)!r} is not a readable MATLAB file: {exc}.") from exc
     missing = [name for name in ("t", "idx") if name not in data]
     if missing:
@@ -218,6 +279,9 @@ def read_pn_mat(
     else:
         finite = idx[np.isfinite(idx)]
         limit = max(int(finite.max()) + 1, 1) if finite.size else 1
+    require_memory(
+        64.0 * limit, f"PN spike file {str(path)!r}: {limit} PNs (n_pn or the highest idx + 1)", " to count spikes per PN"
+    )
     problem = _first_bad_spike(t, idx, limit)
     if problem is not None:
         raise ValidationError(f"PN spike file {str(path)!r}: {problem}.")

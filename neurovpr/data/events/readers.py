@@ -23,7 +23,8 @@ from __future__ import annotations
 
 import os
 import re
-import tempfile
+import zipfile
+import zlib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, Literal
@@ -34,6 +35,9 @@ import numpy as np
 from neurovpr.data.events.aedat import aedat_version, read_aedat2, read_aedat4
 from neurovpr.data.events.stream import EventStream, first_bad_record, normalise_polarity
 from neurovpr.errors import FileFormatError, ValidationError
+from neurovpr.fileio import atomic_output
+from neurovpr.hdf5 import HDF5Rules, open_hdf5, read_dataset
+from neurovpr.resources import require_memory
 
 __all__ = ["read_events", "write_events", "EVENT_FORMATS"]
 
@@ -51,6 +55,10 @@ EVENT_FORMATS: dict[str, str] = {
 _WRITABLE = ("npy", "npz", "hdf5", "csv")
 _ALIASES = {"x": ("x",), "y": ("y",), "t": ("t", "ts", "timestamp"), "p": ("p", "polarity", "pol", "on")}
 _TIME_UNITS = {"ns": 1e-3, "us": 1.0, "ms": 1e3, "s": 1e6}
+#: What an event HDF5 file may hold: numbers, gzip/shuffle compression, nothing outside the file.
+_HDF5_RULES = HDF5Rules(what="events file", filters=("gzip", "shuffle"), strings=True)
+# What zipfile, zlib and numpy raise on a damaged archive.
+_ZIP_ERRORS = (zipfile.BadZipFile, OSError, EOFError, NotImplementedError, RuntimeError, ValueError, zlib.error)
 _SENSOR_RE = re.compile(r"#\s*sensor_size\s*[:=]\s*(\d+)\s*[x, ]\s*(\d+)", re.IGNORECASE)
 
 
@@ -174,7 +182,45 @@ def _pick(path: Path, available: Mapping[str, Any] | tuple[str, ...], where: str
     return picked
 
 
+def _npy_bytes(path: Path, fh: Any, available: int, where: str) -> float:
+    """Declared size of the ``.npy`` array at ``fh``, refused when past ``available`` bytes or the memory limit."""
+    try:
+        version = np.lib.format.read_magic(fh)
+        read_header = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+        shape, _, dtype = read_header(fh)
+    except (ValueError, TypeError, OSError, SyntaxError) as exc:
+        raise FileFormatError(f"events file {str(path)!r}: {where} is not a plain numpy array ({exc}).") from None
+    declared = float(np.prod(shape, dtype=np.float64)) * dtype.itemsize
+    if declared > available:
+        raise FileFormatError(
+            f"events file {str(path)!r} is truncated or forged: {where} declares shape {shape} "
+            f"({declared:.3g} bytes) in {available} bytes."
+        )
+    return declared
+
+
+def _check_npy_sizes(path: Path) -> None:
+    """Check the declared shapes of a ``.npy``/``.npz`` file against its bytes and the memory limit, reading no data."""
+    if path.suffix.lower() == ".npy":
+        with open(path, "rb") as fh:
+            total = _npy_bytes(path, fh, path.stat().st_size, "the array")
+    else:
+        try:
+            with zipfile.ZipFile(path) as archive:
+                total = 0.0
+                for info in archive.infolist():
+                    if info.filename.endswith(".npy"):
+                        with archive.open(info) as fh:
+                            total += _npy_bytes(path, fh, info.file_size, f"member {info.filename!r}")
+        except FileFormatError:
+            raise
+        except _ZIP_ERRORS as exc:
+            raise FileFormatError(f"events file {str(path)!r} is not a readable npz archive ({exc}).") from None
+    require_memory(total, f"reading events file {str(path)!r}")
+
+
 def _load_npy(path: Path) -> tuple[dict[str, np.ndarray], None]:
+    _check_npy_sizes(path)
     try:
         arr = np.load(path, allow_pickle=False)
     except ValueError as exc:
@@ -201,27 +247,25 @@ def _scalar_size(path: Path, source: Mapping[str, Any]) -> tuple[int, int] | Non
 
 
 def _load_npz(path: Path) -> tuple[dict[str, np.ndarray], tuple[int, int] | None]:
+    _check_npy_sizes(path)
     try:
         with np.load(path, allow_pickle=False) as archive:
             data = {name: archive[name] for name in archive.files}
-    except ValueError as exc:
+    except _ZIP_ERRORS as exc:
         raise FileFormatError(f"events file {str(path)!r} is not a plain npz archive: {exc}.") from exc
     picked = _pick(path, tuple(data), "the archive")
     return {col: data[name] for col, name in picked.items()}, _scalar_size(path, data)
 
 
 def _load_hdf5(path: Path) -> tuple[dict[str, np.ndarray], tuple[int, int] | None]:
-    try:
-        with h5py.File(path, "r") as fh:
-            group: h5py.Group = fh
-            if "x" not in fh and isinstance(fh.get("events"), h5py.Group):
-                group = fh["events"]
-            datasets = tuple(k for k in group if isinstance(group[k], h5py.Dataset))
-            picked = _pick(path, datasets, f"HDF5 group {group.name!r}")
-            columns = {col: np.asarray(group[name][()]) for col, name in picked.items()}
-            size = _scalar_size(path, dict(group.attrs))
-    except OSError as exc:
-        raise FileFormatError(f"events file {str(path)!r} is not a readable HDF5 file: {exc}.") from exc
+    with open_hdf5(path, _HDF5_RULES) as fh:
+        group: h5py.Group = fh
+        if "x" not in fh and isinstance(fh.get("events"), h5py.Group):
+            group = fh["events"]
+        datasets = tuple(k for k in group if isinstance(group[k], h5py.Dataset))
+        picked = _pick(path, datasets, f"HDF5 group {group.name!r}")
+        columns = {col: read_dataset(group[name], str(path), _HDF5_RULES) for col, name in picked.items()}
+        size = _scalar_size(path, dict(group.attrs))
     return columns, size
 
 
@@ -279,11 +323,7 @@ def write_events(stream: EventStream, path: str | os.PathLike[str]) -> Path:
             f"events file {str(path)!r}: writing suffix {path.suffix or 'none'!r} is not supported "
             f"(write .npy, .npz, .h5/.hdf5 or .csv)."
         )
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp_name = tempfile.mkstemp(prefix=".tmp-", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    tmp = Path(tmp_name)
-    try:
+    with atomic_output(path) as tmp:
         if fmt == "npy":
             table = np.empty(len(stream), dtype=[("x", "<i4"), ("y", "<i4"), ("t", "<i8"), ("p", "i1")])
             for name in ("x", "y", "t", "p"):
@@ -308,8 +348,5 @@ def write_events(stream: EventStream, path: str | os.PathLike[str]) -> Path:
             with open(tmp, "w", encoding="utf-8") as fh:
                 fh.write(f"# sensor_size: {stream.width}x{stream.height}\nx,y,t,p\n")
                 np.savetxt(fh, table, fmt="%d", delimiter=",")
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
     return path
 

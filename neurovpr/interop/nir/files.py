@@ -9,8 +9,8 @@ peer has changed is imported from its NIR nodes alone.
 from __future__ import annotations
 
 import io
+import math
 import os
-import secrets
 import tempfile
 from collections.abc import Sequence
 from pathlib import Path
@@ -19,6 +19,8 @@ from typing import Any
 import numpy as np
 
 from neurovpr.errors import FileFormatError, NeurovprError, ValidationError
+from neurovpr.fileio import atomic_output
+from neurovpr.hdf5 import HDF5Rules, open_hdf5
 from neurovpr.ir.network import Network
 
 from .export import METADATA_PREFIX, build_graph
@@ -28,7 +30,6 @@ from .mapping import DEFAULT_DT_MS, check_options
 __all__ = ["require_nir", "read_graph", "write_graph", "network_to_nir", "nir_to_network", "export_nir", "import_nir", "load_nir"]
 
 _BLOB = f"{METADATA_PREFIX}network"
-_READ_ERRORS = (OSError, ValueError, KeyError, TypeError, AssertionError, AttributeError, IndexError, RuntimeError)
 
 
 def require_nir() -> Any:
@@ -44,28 +45,79 @@ def _reason(exc: BaseException) -> str:
     return " ".join(str(exc).split())[:300].rstrip(".") or type(exc).__name__
 
 
+#: What a NIR file may hold: numbers and strings, gzip as ``nir.write`` compresses, nothing outside the file.
+NIR_RULES = HDF5Rules(what="NIR file", filters=("gzip",), strings=True)
+
+
 def read_graph(path: str | os.PathLike[str]) -> Any:
-    """Read a NIR file into a ``nir.NIRGraph`` (one :class:`FileFormatError` sentence on any problem)."""
+    """Read a NIR file into a ``nir.NIRGraph`` (one :class:`FileFormatError` sentence on any problem).
+
+    The file is checked whole by the safe HDF5 reader (:mod:`neurovpr.hdf5`: no links,
+    external storage or virtual datasets, only gzip compression, declared sizes within
+    the file and the memory limit) before ``nir.read`` reads any data.
+    """
     nir = require_nir()
     import h5py
 
     target = os.fspath(path)
-    if not os.path.isfile(target):
-        raise FileFormatError(f"NIR file {target!r} does not exist.")
-    if not h5py.is_hdf5(target):
-        raise FileFormatError(f"NIR file {target!r} is not an HDF5 file.")
+    with open_hdf5(target, NIR_RULES) as f:
+        if not isinstance(f.get("node"), h5py.Group):
+            raise FileFormatError(f"NIR file {target!r} has no /node group, so it is not a NIR graph.")
+        _check_node_types(f["node"], target, nir)
     try:
-        with h5py.File(target, "r", locking=False) as f:
-            if not isinstance(f.get("node"), h5py.Group):
-                raise FileFormatError(f"NIR file {target!r} has no /node group, so it is not a NIR graph.")
         graph = nir.read(target, type_check=False)
-    except FileFormatError:
-        raise
-    except _READ_ERRORS as exc:
-        raise FileFormatError(f"NIR file {target!r} is damaged or not a NIR graph ({_reason(exc)}).") from None
+    except Exception as exc:  # nir.read parses untrusted data; any failure of it means a damaged graph
+        raise FileFormatError(f"NIR file {target!r} is damaged or not a NIR graph ({_describe(exc)}).") from None
     if type(graph).__name__ != "NIRGraph":
         raise FileFormatError(f"NIR file {target!r} holds a single {type(graph).__name__} node, not a graph.")
     return graph
+
+
+def _text_dataset(group: Any, key: str) -> str | None:
+    import h5py
+
+    item = group.get(key)
+    if not isinstance(item, h5py.Dataset) or item.shape not in ((), (1,)):
+        return None
+    value = item[()]
+    value = value.reshape(-1)[0] if isinstance(value, np.ndarray) else value
+    return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value)
+
+
+_WINDOW_NODES = ("Conv1d", "Conv2d", "SumPool2d", "AvgPool2d")
+
+
+def _check_node_types(group: Any, path: str, nir: Any, where: str = "graph", depth: int = 0) -> None:
+    """Refuse a node whose ``type`` NIR does not define, naming the node and the type, before ``nir.read``."""
+    import h5py
+
+    known = {name for name, cls in vars(nir).items() if isinstance(cls, type) and issubclass(cls, nir.NIRNode)}
+    kind = _text_dataset(group, "type")
+    if kind is not None and kind not in known:
+        raise FileFormatError(
+            f"NIR file {path!r}: {where} has the type {kind[:80]!r}, which NIR does not define "
+            f"(known: {', '.join(sorted(known - {'NIRNode'}))})."
+        )
+    for field in ("stride", "dilation", "kernel_size"):
+        item = group.get(field)
+        if kind in _WINDOW_NODES and isinstance(item, h5py.Dataset) and item.dtype.kind in "biuf" and item.size <= 8:
+            values = np.asarray(item[()]).reshape(-1)
+            if values.size and (not np.all(np.isfinite(values)) or np.any(values < 1)):
+                raise FileFormatError(
+                    f"NIR file {path!r}: {where} ({kind}) has {field} {values.tolist()}; every {field} must be >= 1."
+                )
+    nodes = group.get("nodes")
+    if kind == "NIRGraph" and isinstance(nodes, h5py.Group) and depth < 64:
+        for name in nodes:
+            if isinstance(nodes[name], h5py.Group):
+                _check_node_types(nodes[name], path, nir, f"node {name[:80]!r}", depth + 1)
+
+
+def _describe(exc: BaseException) -> str:
+    """What went wrong inside ``nir.read``, in words (an unknown node type has no message of its own)."""
+    if isinstance(exc, (AssertionError, KeyError)) and not str(exc).strip("'\""):
+        return "a node of a type NIR does not know, or a node without its fields"
+    return f"{type(exc).__name__}: {_reason(exc)}"
 
 
 def write_graph(graph: Any, path: str | os.PathLike[str]) -> None:
@@ -74,14 +126,8 @@ def write_graph(graph: Any, path: str | os.PathLike[str]) -> None:
     target = Path(path)
     if not target.parent.is_dir():
         raise ValidationError(f"Cannot write {str(target)!r}: the folder {str(target.parent)!r} does not exist.")
-    tmp = target.parent / f".{target.name}.{secrets.token_hex(6)}.tmp"
-    try:
+    with atomic_output(target, make_parents=False) as tmp:
         nir.write(tmp, graph)
-        os.replace(tmp, target)
-    except OSError as exc:
-        raise ValidationError(f"Cannot write {str(target)!r} ({_reason(exc)}).") from None
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 def _canonical(graph: Any) -> dict[str, Any]:
@@ -119,7 +165,23 @@ def _text(v: Any) -> str:
     return v.decode("utf-8", "replace") if isinstance(v, bytes) else str(v)
 
 
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, (bool, np.bool_))
+
+
+#: The metadata neurovpr's export writes, with what each value must be (checked on import).
+_META_RULES: dict[str, tuple[str, Any]] = {
+    "dt_ms": ("a positive number of ms", lambda v: _is_number(v) and math.isfinite(v) and v > 0),
+    "integration": ("'exact' or 'euler'", lambda v: v in ("exact", "euler")),
+    "seed": ("an integer >= 0", lambda v: _is_number(v) and float(v).is_integer() and 0 <= v < 2**63),
+    "allow_refractory": ("0 or 1", lambda v: _is_number(v) and v in (0, 1)),
+    "outputs": ("text (population names separated by commas)", lambda v: isinstance(v, str)),
+    "network_name": ("text", lambda v: isinstance(v, str)),
+}
+
+
 def _meta(graph: Any) -> dict[str, Any]:
+    """The graph's metadata, neurovpr's own entries checked (one sentence naming a wrong one)."""
     meta = getattr(graph, "metadata", None)
     if not isinstance(meta, dict):
         return {}
@@ -128,6 +190,11 @@ def _meta(graph: Any) -> dict[str, Any]:
         if isinstance(v, np.ndarray) and v.shape == () and v.dtype.kind != "u":
             v = v.item()
         out[str(k)] = v.decode("utf-8", "replace") if isinstance(v, bytes) else v
+    for key, (expected, ok) in _META_RULES.items():
+        name = f"{METADATA_PREFIX}{key}"
+        if name in out and not ok(out[name]):
+            shown = f"an array of shape {out[name].shape}" if isinstance(out[name], np.ndarray) else repr(out[name])[:80]
+            raise ValidationError(f"NIR graph metadata {name!r} is {shown}, expected {expected}.")
     return out
 
 

@@ -23,6 +23,7 @@ from neurovpr.ir.cells import SpikeSourceArray
 from neurovpr.ir.connectors import AllToAllConnector, ConvolutionConnector, FromListConnector, OneToOneConnector
 from neurovpr.ir.network import Network, Population, Projection
 from neurovpr.ir.synapses import StaticSynapse
+from neurovpr.resources import require_memory
 
 from .linear import Op, compose, op_from_node
 from .mapping import NEURON_NODES, cell_from_node
@@ -327,7 +328,13 @@ def graph_to_network(graph: Any, *, name: str, dt: float, integration: str) -> N
     b.infer_shapes()
     taken: set[str] = set()
     pop_names = {k: _ir_name(k, taken) for k, r in roles.items() if r in ("input", "neuron")}
-    sizes = {k: int(np.prod(b.shapes[k])) for k in pop_names}
+    sizes = {k: int(np.prod(b.shapes[k], dtype=np.float64)) for k in pop_names}
+    if sizes:
+        largest = max(sizes, key=sizes.__getitem__)
+        require_memory(
+            16.0 * 8 * sum(sizes.values()),
+            f"importing NIR graph: {sum(sizes.values())} neurons (node {largest!r} alone {sizes[largest]})",
+        )
     bias = {k: np.zeros(sizes[k]) for k, r in roles.items() if r == "neuron"}
     projections: list[tuple[str, str, Any, Any, str | None]] = []
     outputs: dict[str, str] = {}

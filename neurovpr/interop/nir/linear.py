@@ -15,6 +15,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from neurovpr.errors import ValidationError
+from neurovpr.resources import require_memory
 
 __all__ = ["Op", "op_from_node", "compose"]
 
@@ -78,12 +79,15 @@ class Op:
         )
 
 
-def _pair(value: Any, where: str, what: str) -> tuple[int, int]:
-    arr = np.asarray(value).reshape(-1)
+def _pair(value: Any, where: str, what: str, *, low: int) -> tuple[int, int]:
+    try:
+        arr = np.asarray(value, dtype=np.float64).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValidationError(f"{where}: {what} must be one or two integers >= {low}, got {value!r}.") from None
     if arr.size == 1:
         arr = np.repeat(arr, 2)
-    if arr.size != 2 or np.any(arr != np.round(arr)):
-        raise ValidationError(f"{where}: {what} must be one or two integers, got {value!r}.")
+    if arr.size != 2 or not np.all(np.isfinite(arr)) or np.any(arr != np.round(arr)) or np.any(arr < low) or np.any(arr > 2**31):
+        raise ValidationError(f"{where}: {what} must be one or two integers >= {low}, got {value!r}.")
     return int(arr[0]), int(arr[1])
 
 
@@ -106,8 +110,8 @@ def _window_op(name: str, kind: str, node: Any, in_shape: tuple[int, ...]) -> Op
         c_out, c_group, kh, kw = weight.shape
         if groups < 1 or c_in != c_group * groups or c_out % groups:
             raise ValidationError(f"{where}: {c_in} input channels do not match weight {weight.shape} with groups={groups}.")
-        stride = _pair(node.stride, where, "stride")
-        dilation = _pair(node.dilation, where, "dilation")
+        stride = _pair(node.stride, where, "stride", low=1)
+        dilation = _pair(node.dilation, where, "dilation", low=1)
         padding = node.padding
         if isinstance(padding, bytes):
             padding = padding.decode()
@@ -123,16 +127,16 @@ def _window_op(name: str, kind: str, node: Any, in_shape: tuple[int, ...]) -> Op
             else:
                 raise ValidationError(f"{where}: padding must be 'same', 'valid' or integers, got {mode!r}.")
         else:
-            ph, pw = _pair(padding, where, "padding")
+            ph, pw = _pair(padding, where, "padding", low=0)
             pads = (ph, ph, pw, pw)
         bias = np.asarray(node.bias, dtype=np.float64).reshape(-1)
         if bias.size not in (1, c_out):
             raise ValidationError(f"{where}: bias has {bias.size} values for {c_out} output channels.")
         extra = {"groups": groups, "dilation": dilation, "stride": stride, "kernel": (kh, kw), "weight": weight}
     else:
-        kh, kw = _pair(node.kernel_size, where, "kernel_size")
-        stride = _pair(node.stride, where, "stride")
-        ph, pw = _pair(node.padding, where, "padding")
+        kh, kw = _pair(node.kernel_size, where, "kernel_size", low=1)
+        stride = _pair(node.stride, where, "stride", low=1)
+        ph, pw = _pair(node.padding, where, "padding", low=0)
         pads, c_out, dilation = (ph, ph, pw, pw), c_in, (1, 1)
         extra = {"groups": c_in, "dilation": dilation, "stride": stride, "kernel": (kh, kw)}
     oh = (h + pads[0] + pads[1] - dilation[0] * (kh - 1) - 1) // stride[0] + 1
@@ -152,6 +156,9 @@ def _window_entries(op: Op) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     kh, kw = op.extra["kernel"]
     (sh, sw), (dh, dw) = op.extra["stride"], op.extra["dilation"]
     top, left = op.pads[0], op.pads[2]
+    per_out_entry = (c_in // op.extra["groups"] if op.kind == "Conv2d" else 1) * kh * kw
+    entries = float(c_out) * per_out_entry * oh * ow
+    require_memory(entries * 64, f"NIR node {op.name!r} ({op.kind}): {entries:.3g} connections")
     if op.kind == "Conv2d":
         groups = op.extra["groups"]
         per_in, per_out = c_in // groups, c_out // groups
@@ -209,8 +216,13 @@ def op_from_node(name: str, node: Any, in_shape: tuple[int, ...]) -> Op:
         return Op(name, kind, in_shape, in_shape, node, extra={"scale": np.broadcast_to(scale.reshape(-1), (n_in,)).copy()})
     if kind == "Delay":
         delay = np.asarray(node.delay, dtype=np.float64).reshape(-1)
-        if delay.size not in (1, n_in) or not np.all(np.isfinite(delay)) or np.any(delay < 0):
-            raise ValidationError(f"{where}: delay must be {n_in} finite values >= 0 s, got {delay.size} values.")
+        if delay.size not in (1, n_in):
+            raise ValidationError(f"{where}: delay must be 1 or {n_in} values (seconds), got {delay.size} values.")
+        bad = np.flatnonzero(~np.isfinite(delay) | (delay < 0))
+        if bad.size:
+            raise ValidationError(
+                f"{where}: delay[{int(bad[0])}] is {float(delay[bad[0]])!r} s; every delay must be a finite number >= 0 s."
+            )
         return Op(name, kind, in_shape, in_shape, node, delay=np.broadcast_to(delay, (n_in,)).copy())
     if kind in ("Input", "Output"):  # the ports of a flattened subgraph
         return Op(name, "pass", in_shape, in_shape, node)

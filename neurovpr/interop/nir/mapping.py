@@ -101,7 +101,7 @@ import numpy as np
 
 from neurovpr.backendkit.params import per_neuron
 from neurovpr.errors import ValidationError
-from neurovpr.ir.cells import IF_curr_exp
+from neurovpr.ir.cells import NO_LEAK, IF_curr_exp
 
 __all__ = [
     "DEFAULT_DT_MS",
@@ -124,9 +124,9 @@ DEFAULT_DT_MS = 0.1
 #: Synaptic time constant (ms) that stands for NIR's instantaneous (delta) synapse:
 #: ``exp(-dt / TAU_DELTA_MS)`` is exactly 0.0 in float64 for every ``dt >= 1e-3`` ms.
 TAU_DELTA_MS = 1e-6
-#: Membrane time constant (ms) that stands for "no leak": ``exp(-dt / TAU_NO_LEAK_MS)``
-#: rounds to exactly 1.0 for every ``dt <= 1e10`` ms.
-TAU_NO_LEAK_MS = 1e30
+#: Membrane time constant (ms) that stands for "no leak" (:data:`neurovpr.NO_LEAK`):
+#: ``exp(-dt / TAU_NO_LEAK_MS)`` rounds to exactly 1.0 for every ``dt <= 1e10`` ms.
+TAU_NO_LEAK_MS = NO_LEAK
 #: NIR neuron node types: (has a synaptic current, has a leak, spikes).
 NEURON_NODES: dict[str, tuple[bool, bool, bool]] = {
     "CubaLIF": (True, True, True),
