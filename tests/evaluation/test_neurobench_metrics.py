@@ -1,0 +1,69 @@
+"""neurovpr's NeuroBench metrics on small networks whose counts are worked out by hand."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import neurovpr as nv
+from neurovpr.errors import ValidationError
+from neurovpr.evaluation.neurobench import NeuroBenchCounter, neurobench_from_activity, static_metrics
+
+
+def _net() -> nv.Network:
+    net = nv.Network("nb")
+    net.add_population("inp", 3, nv.SpikeSourceArray.from_lists([[]] * 3))
+    net.add_population("out", 2, nv.IF_curr_exp())
+    w = np.array([[1.0, 0.0], [0.5, 0.5], [0.0, 0.0]])  # 3 of 6 weights are zero
+    net.connect("inp", "out", nv.AllToAllConnector(), nv.StaticSynapse(weight=w))
+    return net
+
+
+def test_static_metrics_count_weights_zeros_and_neuron_values() -> None:
+    s = static_metrics(_net())
+    assert s["synapses"] == 6 and s["zero_weights"] == 3 and s["connection_sparsity"] == 0.5
+    assert s["footprint_weight_bytes"] == 6 * 4 and s["footprint_neuron_bytes"] == 2 * 3 * 4
+    assert s["footprint_bytes"] == 48
+
+
+def test_counter_follows_neurobench_definitions() -> None:
+    c = NeuroBenchCounter(_net(), dt=1.0)
+    # input neuron 0 fires twice (1 non-zero synapse), 1 once (2), 2 three times (0); out fires once
+    v = np.array([[0.0, 0.0], [0.5, 0.0], [0.5, 0.0], [0.25, 0.1]])
+    c.add_sample(steps=4, spike_counts={"inp": np.array([2, 1, 3]), "out": np.array([1, 0])}, membrane={"out": v})
+    r = c.result()
+    assert r["synaptic_operations"] == {"Effective_MACs": 0.0, "Effective_ACs": 4.0, "Dense": 24.0}
+    assert r["activation_sparsity"] == (8 - 1) / 8
+    assert r["membrane_updates"] == 2 + 1 + 0 + 2  # all on the first step, then the changes
+    c.add_sample(steps=4, spike_counts={"inp": np.zeros(3), "out": np.zeros(2)})
+    r = c.result()
+    assert r["membrane_updates"] is None and r["synaptic_operations"]["Effective_ACs"] == 2.0 and r["samples"] == 2
+
+
+def test_counter_reads_a_reference_run() -> None:
+    net = _net()
+    sim = nv.compile(net, backend="reference", dt=1.0, seed=0)
+    sim.record("out", "v")
+    sim.run(10.0, inputs={"inp": [[1.0, 3.0], [2.0], []]})
+    c = NeuroBenchCounter(net, dt=1.0)
+    c.add_run(sim)
+    r = c.result()
+    assert r["synaptic_operations"]["Effective_ACs"] == 2 * 1 + 1 * 2
+    assert r["synaptic_operations"]["Dense"] == 6 * r["steps_per_sample"]
+    assert r["membrane_updates"] is not None and 2 <= r["membrane_updates"] <= r["membrane_updates_dense"]
+
+
+def test_counter_refuses_wrong_shapes() -> None:
+    c = NeuroBenchCounter(_net(), dt=1.0)
+    with pytest.raises(ValidationError, match="'inp'"):
+        c.add_sample(steps=2, spike_counts={"inp": np.zeros(2), "out": np.zeros(2)})
+    with pytest.raises(ValidationError, match="steps"):
+        c.add_sample(steps=0, spike_counts={"inp": np.zeros(3), "out": np.zeros(2)})
+
+
+def test_block_from_activity_totals() -> None:
+    activity = {"steps": 10.0, "synaptic_events": 7.0, "dt_ms": 1.0, "population_spikes": {"inp": 5.0, "out": 4.0}}
+    b = neurobench_from_activity(_net(), activity)
+    assert b["synaptic_operations"] == {"Effective_MACs": 0.0, "Effective_ACs": 7.0, "Dense": 60.0}
+    assert b["activation_sparsity"] == 1 - 4.0 / 20.0 and b["membrane_updates"] is None
+    assert b["connection_sparsity"] == 0.5
