@@ -8,6 +8,7 @@ from pathlib import Path
 
 from neurovpr.apps.modelapi import get_model, model_names, read_run_info
 from neurovpr.cli.main import _Parser
+from neurovpr.evaluation.neurobench import neurobench_block
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -39,6 +40,7 @@ def run(args: argparse.Namespace) -> int:
     model.add_eval_arguments(parser.add_argument_group(f"{info['model']} options"))  # type: ignore[arg-type]
     args = parser.parse_args(args.argv[1:])
     result = model.evaluate(args, info)
+    result.setdefault("neurobench", neurobench_block(args.run))
     if args.json:
         print(json.dumps(result))
     else:

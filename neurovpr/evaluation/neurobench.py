@@ -43,6 +43,7 @@ membrane updates (``metrics/workload/membrane_updates.py``, ``hooks/neuron.py``)
 from __future__ import annotations
 
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -51,7 +52,14 @@ from neurovpr.errors import ValidationError
 from neurovpr.ir.connectivity import Connections, expand
 from neurovpr.ir.network import Network
 
-__all__ = ["NEUROBENCH_VERSION", "NeuroBenchCounter", "static_metrics", "neurobench_from_activity", "synaptic_op_summary"]
+__all__ = [
+    "NEUROBENCH_VERSION",
+    "NeuroBenchCounter",
+    "static_metrics",
+    "neurobench_from_activity",
+    "neurobench_block",
+    "synaptic_op_summary",
+]
 
 #: The NeuroBench release whose definitions this module follows.
 NEUROBENCH_VERSION = "2.3.0"
@@ -272,6 +280,23 @@ def neurobench_from_activity(
         }
     )
     return block
+
+
+def neurobench_block(run_dir: str | Path) -> dict[str, Any]:
+    """The ``"neurobench"`` block of ``neurovpr eval --json`` for a run directory.
+
+    Built by :func:`neurobench_from_activity` from ``RUN_DIR/activity.json`` (the last
+    evaluation's per-inference counts) and ``RUN_DIR/network.h5``; a run without either
+    gets ``{"reason": ...}`` saying which is missing.
+    """
+    from neurovpr.hardware.energy import ACTIVITY_FILE, read_activity
+    from neurovpr.ir.serialization import load
+
+    base = Path(run_dir)
+    for name in (ACTIVITY_FILE, "network.h5"):
+        if not (base / name).is_file():
+            return {"reason": f"the run directory has no {name}"}
+    return neurobench_from_activity(load(base / "network.h5"), read_activity(base / ACTIVITY_FILE))
 
 
 def synaptic_op_summary(activity: Mapping[str, Any]) -> str:

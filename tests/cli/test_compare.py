@@ -234,6 +234,10 @@ def test_cli_json_and_png(plugin: TemplatePlugin, dataset: Path, runs: dict[str,
     obj = json.loads(out)
     assert set(obj["backends"]) == {"reference", "nengo"}
     assert obj["backends"]["nengo"]["deployed_from"] == "reference"
+    for row in obj["backends"].values():  # NeuroBench's metrics of each backend's run
+        ops = row["neurobench"]["synaptic_operations"]
+        assert ops["Dense"] >= ops["Effective_ACs"] > 0 and ops["Effective_MACs"] == 0.0
+        assert 0.0 < row["neurobench"]["activation_sparsity"] <= 1.0 and row["neurobench"]["footprint_bytes"] > 0
     assert obj["plot"] == str(png)
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 5000
 

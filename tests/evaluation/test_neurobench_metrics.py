@@ -7,7 +7,8 @@ import pytest
 
 import neurovpr as nv
 from neurovpr.errors import ValidationError
-from neurovpr.evaluation.neurobench import NeuroBenchCounter, neurobench_from_activity, static_metrics
+from neurovpr.evaluation.neurobench import NeuroBenchCounter, neurobench_block, neurobench_from_activity, static_metrics
+from neurovpr.hardware.energy import write_activity
 
 
 def _net() -> nv.Network:
@@ -67,3 +68,15 @@ def test_block_from_activity_totals() -> None:
     assert b["synaptic_operations"] == {"Effective_MACs": 0.0, "Effective_ACs": 7.0, "Dense": 60.0}
     assert b["activation_sparsity"] == 1 - 4.0 / 20.0 and b["membrane_updates"] is None
     assert b["connection_sparsity"] == 0.5
+
+
+def test_eval_block_from_a_run_directory(tmp_path) -> None:
+    """``eval --json``'s "neurobench" block: from RUN_DIR's activity and network, or the reason."""
+    assert neurobench_block(tmp_path) == {"reason": "the run directory has no activity.json"}
+    write_activity(tmp_path, {"steps": 20, "neuron_updates": 40, "spikes": 12, "synaptic_events": 14}, 2, dt_ms=1.0,
+                   population_spikes={"inp": 10, "out": 2})  # fmt: skip
+    assert neurobench_block(tmp_path) == {"reason": "the run directory has no network.h5"}
+    nv.save(_net(), tmp_path / "network.h5")
+    b = neurobench_block(tmp_path)
+    assert b["synaptic_operations"]["Effective_ACs"] == 7.0 and b["synaptic_operations"]["Dense"] == 60.0
+    assert b["activation_sparsity"] == 1 - 1.0 / 20.0
