@@ -264,6 +264,7 @@ def neurobench_from_activity(
         sparsity: float | None = 1.0 - spikes / (neurons * steps) if neurons * steps else 0.0
     else:
         sparsity = None
+        block["activation_sparsity_reason"] = "the activity has no spikes per population (population_spikes)"
     block.update(
         {
             "version": NEUROBENCH_VERSION,
