@@ -119,3 +119,32 @@ def test_neurobench_counts_agree_exactly_on_an_snntorch_model(tmp_path: Path) ->
     assert ours["membrane_updates"] == theirs["MembraneUpdates"]
     assert round(static["connection_sparsity"], 4) == theirs["ConnectionSparsity"]
     assert static["footprint_bytes"] + 2 * 12 == theirs["Footprint"]
+
+
+def test_connection_sparsity_with_zero_weights_agrees_after_export_to_snntorch(tmp_path: Path) -> None:
+    """Zero weights survive export to NIR (a dense Linear), so NeuroBench sees the same zeros.
+
+    The other direction cannot show this: NIR import stores a Linear with zeros as a
+    FromListConnector of its non-zero weights. The weights' bytes are snnTorch's parameters;
+    the neuron part of its footprint differs by design (the imported layer keeps shared scalars).
+    """
+    from snntorch.import_nir import import_from_nir
+
+    from neurovpr.interop.nir import export_nir, read_graph
+
+    rng = np.random.default_rng(0)
+    lif = {"tau_refrac": 0.0, "v_rest": 0.0, "v_reset": 0.0, "v_thresh": 1.0}
+    net = nv.Network("zeros")
+    net.add_population("inp", 12, nv.SpikeSourceArray.from_lists([[]] * 12))
+    net.add_population("hid", 10, nv.IF_curr_exp(cm=0.5, tau_m=2.0, tau_syn_E=1.0, tau_syn_I=1.0, **lif))
+    w = rng.normal(0.3, 0.5, (12, 10))
+    w[rng.random(w.shape) < 0.4] = 0.0
+    net.connect("inp", "hid", nv.AllToAllConnector(), nv.StaticSynapse(weight=w))
+    export_nir(net, tmp_path / "zeros.nir", integration="euler", dt=H)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        model = SNNTorchModel(import_from_nir(read_graph(tmp_path / "zeros.nir")))
+    ours = static_metrics(net, dt=H)
+    assert ours["zero_weights"] == int((w == 0).sum()) > 0
+    assert round(ours["connection_sparsity"], 4) == ConnectionSparsity()(model)
+    assert ours["footprint_weight_bytes"] == sum(p.numel() * p.element_size() for p in model.__net__().parameters())
