@@ -48,7 +48,7 @@ from typing import Any
 
 import numpy as np
 
-from neurovpr.errors import ValidationError
+from neurovpr.errors import SimulationError, ValidationError
 from neurovpr.ir.connectivity import Connections, expand
 from neurovpr.ir.network import Network
 
@@ -176,19 +176,17 @@ class NeuroBenchCounter:
         """
         if isinstance(steps, bool) or not isinstance(steps, int) or steps < 1:
             raise ValidationError(f"NeuroBenchCounter.add_sample: steps must be an integer >= 1, got {steps!r}.")
+        checked: dict[str, np.ndarray] = {}
         for name, pop in self._network.populations.items():
             counts = np.asarray(spike_counts.get(name, ()), dtype=np.int64)
             if counts.shape != (pop.size,):
                 raise ValidationError(
                     f"NeuroBenchCounter.add_sample: spike counts of {name!r} must have shape ({pop.size},), got {counts.shape}."
                 )
-            if name in self._fan_out:
-                self._acs += int(counts @ self._fan_out[name])
-            if not pop.is_source:
-                self._spikes += int(counts.sum())
-        if membrane is None or self._updates is None:
-            self._updates = None
-        else:
+            checked[name] = counts
+        updates = None
+        if membrane is not None and self._updates is not None:
+            updates = 0
             for name in self._spiking:
                 v = np.asarray(membrane.get(name, np.empty((0, 0))))
                 size = self._network.populations[name].size
@@ -196,7 +194,13 @@ class NeuroBenchCounter:
                     raise ValidationError(
                         f"NeuroBenchCounter.add_sample: membrane of {name!r} must have shape ({steps}, {size}), got {v.shape}."
                     )
-                self._updates += size + int(np.count_nonzero(v[1:] != v[:-1]))
+                updates += size + int(np.count_nonzero(v[1:] != v[:-1]))
+        for name, counts in checked.items():
+            if name in self._fan_out:
+                self._acs += int(counts @ self._fan_out[name])
+            if not self._network.populations[name].is_source:
+                self._spikes += int(counts.sum())
+        self._updates = None if updates is None else self._updates + updates
         self.samples += 1
         self.steps += steps
 
@@ -214,7 +218,7 @@ class NeuroBenchCounter:
                     membrane = None
                     break
                 membrane[name] = sim.trace(name, "v")[1]
-            except Exception:
+            except SimulationError:  # not recorded
                 membrane = None
                 break
         if steps is None:

@@ -60,6 +60,10 @@ def test_counter_refuses_wrong_shapes() -> None:
         c.add_sample(steps=2, spike_counts={"inp": np.zeros(2), "out": np.zeros(2)})
     with pytest.raises(ValidationError, match="steps"):
         c.add_sample(steps=0, spike_counts={"inp": np.zeros(3), "out": np.zeros(2)})
+    with pytest.raises(ValidationError, match="membrane of 'out'"):
+        c.add_sample(steps=3, spike_counts={"inp": np.ones(3), "out": np.ones(2)}, membrane={"out": np.zeros((2, 2))})
+    r = c.result()  # a refused sample leaves nothing behind
+    assert r["samples"] == 0 and r["synaptic_operations"]["Effective_ACs"] == 0 and r["membrane_updates"] == 0
 
 
 def test_block_from_activity_totals() -> None:
