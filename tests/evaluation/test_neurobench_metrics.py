@@ -84,3 +84,36 @@ def test_eval_block_from_a_run_directory(tmp_path) -> None:
     b = neurobench_block(tmp_path)
     assert b["synaptic_operations"]["Effective_ACs"] == 7.0 and b["synaptic_operations"]["Dense"] == 60.0
     assert b["activation_sparsity"] == 1 - 1.0 / 20.0
+
+
+_BACKENDS = [
+    "reference",
+    "nengo",
+    pytest.param("brian2", marks=pytest.mark.slow),
+    pytest.param("lava", marks=pytest.mark.slow),
+]
+
+
+@pytest.mark.parametrize("backend", _BACKENDS)
+def test_counts_are_the_same_on_every_backend(backend: str) -> None:
+    """The same run on another backend gives the same NeuroBench counts (worked out for the reference run)."""
+    from neurovpr.runtime.registry import discover
+
+    info = discover()[backend]
+    if not info.available:
+        pytest.skip(f"backend {backend!r} is not usable here: {info.reason}")
+    net = nv.Network("nb")
+    net.add_population("inp", 3, nv.SpikeSourceArray.from_lists([[]] * 3))
+    net.add_population("out", 2, nv.IF_curr_exp())
+    net.connect(
+        "inp", "out", nv.AllToAllConnector(), nv.StaticSynapse(weight=12 * np.array([[1.0, 0.0], [0.5, 0.5], [0.0, 0.0]]))
+    )
+    sim = nv.compile(net, backend=backend, dt=1.0, seed=0)
+    sim.record("out", "v")
+    sim.run(30.0, inputs={"inp": [[1.0, 3.0, 9.0, 11.0], [2.0, 10.0, 20.0], [5.0]]})
+    c = NeuroBenchCounter(net, dt=1.0)
+    c.add_run(sim)
+    r = c.result()
+    assert r["synaptic_operations"] == {"Effective_MACs": 0.0, "Effective_ACs": 4 * 1 + 3 * 2 + 1 * 0, "Dense": 6 * 30}
+    assert r["activation_sparsity"] == 1 - sim.spike_counts("out").sum() / 60 == 0.7
+    assert r["membrane_updates"] == 50.0
