@@ -39,6 +39,9 @@ case "$mode" in
         if [ -f scripts/install_lava.sh ]; then
             bash scripts/install_lava.sh .venv/bin/python
         fi
+        if [ -f scripts/install_neurobench.sh ]; then
+            bash scripts/install_neurobench.sh .venv/bin/python
+        fi
         exec .venv/bin/python -m pytest "$@"
         ;;
     *)

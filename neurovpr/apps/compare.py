@@ -68,6 +68,7 @@ class BackendComparison:
     spike_count_correlation: float | None = None
     seconds_per_query: float | None = None
     energy: dict[str, Any] | None = None
+    neurobench: dict[str, Any] | None = None
     deployed_from: str | None = None
     notes: tuple[str, ...] = ()
     predictions: np.ndarray | None = None
@@ -90,6 +91,8 @@ class BackendComparison:
         }
         if self.energy is not None:
             out["energy"] = dict(self.energy)
+        if self.neurobench is not None:
+            out["neurobench"] = dict(self.neurobench)
         if self.deployed_from is not None:
             out["deployed_from"] = self.deployed_from
         if self.notes:
@@ -316,6 +319,17 @@ def _energy(activity: Mapping[str, Any] | None, spec: Any, network: Any, seed: i
                                  "cores", "not_estimated", "notes")}  # fmt: skip
 
 
+def _neurobench(activity: Mapping[str, Any] | None, network: Any, seed: int) -> dict[str, Any]:
+    """NeuroBench's metrics of one backend's run, from its per-inference activity and the run's network."""
+    from neurovpr.evaluation.neurobench import neurobench_from_activity
+
+    if network is None:
+        return {"reason": f"the run directory has no {_NETWORK_FILE}"}
+    if activity is None or "steps" not in activity:
+        return {"reason": "the backend counted no activity"}
+    return neurobench_from_activity(network, activity, seed=seed)
+
+
 def _run_network(run_dir: Path) -> Any:
     """The run's network (for the partition behind the energy estimate), or ``None`` when it has none."""
     path = run_dir / _NETWORK_FILE
@@ -370,12 +384,12 @@ def compare_model(
         raise ValidationError(f"model must be a neurovpr ModelPlugin, got {type(plugin).__name__}.")
     if type(plugin).infer is modelapi.ModelPlugin.infer:
         raise UnsupportedFeatureError(f"Model {info['model']!r} does not implement inference, so it cannot be compared.")
-    spec = network = None
+    spec = None
+    network = _run_network(run_dir)
     if hardware is not None:
         from neurovpr.hardware.hwspec import load_hwspec
 
         spec = load_hwspec(hardware)
-        network = _run_network(run_dir)
     trained_on = info.get("backend") if isinstance(info.get("backend"), str) else None
     data_path = None if data is None else Path(data)
     if data_path is not None and not data_path.exists():
@@ -448,6 +462,7 @@ def _one_backend(
         corr = spike_count_correlation(res["output_counts"], ref.output_counts)
     energy = None if spec is None else _energy(res["activity"], spec, network, seed)
     return BackendComparison(
+        neurobench=_neurobench(res["activity"], network, seed),
         backend=name,
         metrics=res["metrics"],
         agreement=agree,

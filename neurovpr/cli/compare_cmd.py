@@ -57,15 +57,34 @@ def run(args: argparse.Namespace) -> int:
         args.run, args.data, args.backends, hardware=args.hw, seed=args.seed, progress=not args.no_progress
     )
     written = plot_comparison(comparison, plot)
+    confusion = _write_confusion(comparison, plot)
     if args.json:
         out = comparison.as_dict()
         out["plot"] = str(written)
+        out["confusion"] = confusion
         print(json.dumps(out))
     else:
         print(f"model: {comparison.model}  run: {comparison.run}  trained on: {comparison.trained_on or 'unknown'}")
         print(comparison.table())
         print(f"plot: {written}")
+        if confusion:
+            print(f"confusion of predicted places: {confusion['plot']} ({confusion['json']})")
     if not comparison.any_ran:
         print("neurovpr compare: no backend could run the model.", file=sys.stderr)
         return 1
     return 0
+
+
+def _write_confusion(comparison, plot: Path) -> dict[str, str]:
+    """Write the predicted-place confusion beside the plot (PNG + JSON); ``{}`` when no backend ran."""
+    from neurovpr.apps.compare_plots import place_confusion, plot_place_confusion
+    from neurovpr.fileio import atomic_write_text
+
+    data = place_confusion(comparison)
+    if not data["backends"]:
+        return {}
+    png = plot.with_name(f"{plot.stem}_confusion.png")
+    js = png.with_suffix(".json")
+    plot_place_confusion(data, png, title=f"{comparison.model}: predicted places against {data['reference_backend']}")
+    atomic_write_text(js, json.dumps(data, indent=2) + "\n")
+    return {"plot": str(png), "json": str(js)}

@@ -25,6 +25,8 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
                      "Poisson input at --rate for --duration to count its activity")  # fmt: skip
     p.add_argument("--rate", type=float, default=20.0, help="with --file: input firing rate in Hz (default 20)")
     p.add_argument("--duration", type=float, default=100.0, help="with --file: ms per inference (default 100)")
+    p.add_argument("--plots", metavar="DIR", default=None,
+                   help="with --file: also write the run's spike raster, rate histograms (PNG) and summary to DIR")  # fmt: skip
     p.add_argument("--dt", type=float, default=None, help="with --file: time step in ms (default: the hardware's)")
     p.add_argument("--hw", required=True, metavar="NAME", help="hwspec name (spinn5, kapoho-bay, loihi2) or .toml file")
     p.add_argument("--seed", type=int, default=0, help="seed of random connectors without their own (default 0)")
@@ -40,14 +42,17 @@ def run(args: argparse.Namespace) -> int:
     from .check_cmd import NETWORK_FILE, load_network_arg
 
     spec = load_hwspec(args.hw)
+    if args.plots is not None and args.file is None:
+        raise ValidationError("--plots draws the run that --file makes; a --run directory's run is not kept.")
     if args.file is not None:
         from neurovpr.interop.activity import probe_activity
 
         network = load_network_arg(None, args.file)
         dt = args.dt if args.dt is not None else spec.timing.time_step_ms
-        activity = probe_activity(network, rate_hz=args.rate, duration_ms=args.duration, dt=dt, seed=args.seed)
+        activity = probe_activity(network, rate_hz=args.rate, duration_ms=args.duration, dt=dt, seed=args.seed,
+                                  plots=args.plots)  # fmt: skip
         report = estimate_energy(activity, spec, network=network, seed=args.seed)
-        print(json.dumps(report.as_dict(), indent=2) if args.json else report.table())
+        _print(report, activity, args.json)
         return 0
     base = Path(args.run)
     if not base.is_dir():
@@ -57,8 +62,18 @@ def run(args: argparse.Namespace) -> int:
     activity = read_activity(base / ACTIVITY_FILE)
     network = load_network_arg(args.run, None) if (base / NETWORK_FILE).is_file() else None
     report = estimate_energy(activity, spec, network=network, seed=args.seed)
-    if args.json:
-        print(json.dumps(report.as_dict(), indent=2))
+    _print(report, activity, args.json)
+    return 0
+
+
+def _print(report, activity, as_json: bool) -> None:
+    """The report, with the synaptic-operation counts (NeuroBench's) its energy multiplies."""
+    from neurovpr.evaluation.neurobench import synaptic_op_summary
+
+    ops = {"Effective_ACs": float(activity["synaptic_events"]), "Effective_MACs": 0.0,
+           "plastic_updates": float(activity.get("plastic_updates", 0.0))}  # fmt: skip
+    if as_json:
+        print(json.dumps({**report.as_dict(), "synaptic_operations": ops}, indent=2))
     else:
         print(report.table())
-    return 0
+        print(f"  {synaptic_op_summary(activity)}")

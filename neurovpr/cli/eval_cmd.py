@@ -9,6 +9,7 @@ from pathlib import Path
 from neurovpr.apps.modelapi import get_model, read_run_info
 from neurovpr.cli.arguments import ModelHelp, parse_model_options
 from neurovpr.cli.main import _Parser
+from neurovpr.evaluation.neurobench import neurobench_block
 
 
 def _common(p: argparse.ArgumentParser) -> None:
@@ -43,6 +44,7 @@ def run(args: argparse.Namespace) -> int:
     model = get_model(info["model"])
     args = parse_model_options(_model_parser(args.run), args.argv[1:], "eval", info["model"])
     result = model.evaluate(args, info)
+    result.setdefault("neurobench", neurobench_block(args.run))
     if args.json:
         print(json.dumps(result))
     else:

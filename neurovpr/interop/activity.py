@@ -10,6 +10,7 @@ and returns the per-inference counts in the form of
 from __future__ import annotations
 
 import math
+import os
 import time
 from typing import Any
 
@@ -36,6 +37,7 @@ def probe_activity(
     dt: float = 1.0,
     seed: int = 0,
     backend: str = "reference",
+    plots: str | os.PathLike[str] | None = None,
 ) -> dict[str, Any]:
     """Counts of one "inference": ``duration_ms`` of Poisson input at ``rate_hz`` on every source neuron.
 
@@ -53,6 +55,8 @@ def probe_activity(
         Seed of the input spikes and of random connectors.
     backend
         The backend that runs it.
+    plots
+        A folder: also write the run's spike raster and rate histograms there (``Simulation.plot_activity``).
 
     Returns
     -------
@@ -88,4 +92,6 @@ def probe_activity(
         out[key] = float(stats.get(key, 0))
     out["population_spikes"] = {name: float(sim.spike_counts(name).sum()) for name in network.populations}
     out["cpu_seconds"] = cpu
+    if plots is not None:
+        sim.plot_activity(plots)
     return out

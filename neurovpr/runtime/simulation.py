@@ -20,7 +20,10 @@ Semantics shared by all backends:
 from __future__ import annotations
 
 import math
+import os
 from abc import ABC, abstractmethod
+from collections.abc import Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, Mapping
 
 import numpy as np
@@ -241,6 +244,15 @@ class Simulation(ABC):
     def statistics(self) -> dict[str, int]:
         """Activity counted since compile: steps, neuron updates, spikes, synaptic events, plastic updates."""
         return dict(self._statistics())
+
+    def plot_activity(self, out_dir: str | os.PathLike[str], populations: Sequence[str] | None = None) -> dict[str, Path]:
+        """Write a spike raster, per-population rate histograms (PNG) and a JSON summary of the run since the last reset.
+
+        See :func:`neurovpr.evaluation.activity_plots.plot_activity`; returns the paths written.
+        """
+        from neurovpr.evaluation.activity_plots import plot_activity
+
+        return plot_activity(self, out_dir, populations=populations)
 
     def learned_state(self, population: str) -> dict[str, np.ndarray]:
         """Learned per-neuron quantities of a population (``{"theta": ...}`` for adaptive neurons)."""

@@ -234,7 +234,23 @@ def test_cli_json_and_png(plugin: TemplatePlugin, dataset: Path, runs: dict[str,
     obj = json.loads(out)
     assert set(obj["backends"]) == {"reference", "nengo"}
     assert obj["backends"]["nengo"]["deployed_from"] == "reference"
+    for row in obj["backends"].values():  # NeuroBench's metrics of each backend's run
+        ops = row["neurobench"]["synaptic_operations"]
+        assert ops["Dense"] >= ops["Effective_ACs"] > 0 and ops["Effective_MACs"] == 0.0
+        assert row["neurobench"]["footprint_bytes"] > 0 and 0.0 <= row["neurobench"]["connection_sparsity"] < 1.0
+        sparsity = row["neurobench"]["activation_sparsity"]  # None where the model kept no spikes per population
+        reason = row["neurobench"].get("activation_sparsity_reason", "")
+        assert (0.0 < sparsity <= 1.0) if sparsity is not None else "population_spikes" in reason
     assert obj["plot"] == str(png)
+    conf = json.loads(Path(obj["confusion"]["json"]).read_text())  # predicted places of each backend against reference
+    assert obj["confusion"]["plot"] == str(tmp_path / "cmp_confusion.png") and conf["reference_backend"] == "reference"
+    totals = {name: sum(c for _, _, c in conf["backends"][name]["pairs"]) for name in ("reference", "nengo")}
+    assert totals["reference"] == totals["nengo"] > 0  # every query once
+    for name in ("reference", "nengo"):
+        pairs = conf["backends"][name]["pairs"]
+        same = sum(c for a, b, c in pairs if a == b) / sum(c for _, _, c in pairs)
+        assert same == pytest.approx(obj["backends"][name]["agreement"])
+    assert Path(obj["confusion"]["plot"]).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 5000
 
 

@@ -141,8 +141,10 @@ def test_cli_energy(tmp_path, capsys, neurovpr_main):
     assert out["hardware"] == "kapoho-bay" and out["cores"] == 3 and out["joules_per_inference"] > 0
     assert set(out["breakdown"]) >= {"synaptic_ops", "neuron_updates", "static"}
     assert out["cpu"]["joules_per_inference"] == pytest.approx(30.0)
+    assert out["synaptic_operations"]["Effective_ACs"] == STATS["synaptic_events"] / 10
     assert neurovpr_main(["energy", "--run", str(run), "--hw", "spinn5"]) == 0
     text = capsys.readouterr().out
     assert "J per inference" in text and "static" in text and "measured CPU: 30 J" in text
+    assert f"{STATS['synaptic_events'] / 10:g} accumulates (NeuroBench Effective_ACs" in text
     assert neurovpr_main(["energy", "--run", str(tmp_path), "--hw", "spinn5"]) == 2
     assert "has no activity.json" in capsys.readouterr().err

@@ -268,7 +268,7 @@ def _parser(kind: str) -> argparse.ArgumentParser:
     return p
 
 
-def test_train_and_eval_write_a_complete_run_directory(tmp_path) -> None:
+def test_train_and_eval_write_a_complete_run_directory(tmp_path, capsys) -> None:
     data = write_generic(synthetic_traverse(10, seed=5), tmp_path / "data")
     run = tmp_path / "run"
     args = _parser("train").parse_args(
@@ -294,6 +294,12 @@ def test_train_and_eval_write_a_complete_run_directory(tmp_path) -> None:
     from neurovpr.cli.main import main
 
     assert main(["check", "--run", str(run), "--hw", "kapoho-bay", "--json"]) == 0
+    capsys.readouterr()
+    assert main(["eval", "--run", str(run), "--queries", "6", "--json"]) == 0  # with NeuroBench's metrics of the run
+    block = json.loads(capsys.readouterr().out)["neurobench"]
+    activity = json.loads((run / "activity.json").read_text())
+    assert block["synaptic_operations"]["Effective_ACs"] == activity["synaptic_events"] > 0
+    assert block["synaptic_operations"]["Dense"] == block["synapses"] * 20 and 0.0 < block["activation_sparsity"] < 1.0
 
 
 def test_train_refuses_a_dataset_with_too_few_places(tmp_path) -> None:
