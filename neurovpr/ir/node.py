@@ -9,6 +9,7 @@ the same declaration and adding a parameter touches one line.
 from __future__ import annotations
 
 import dataclasses
+import inspect
 import math
 from collections.abc import Mapping
 from typing import Any
@@ -129,6 +130,12 @@ def _coerce_numeric(owner: str, name: str, value: Any, meta: Mapping[str, Any]) 
     raise ValidationError(f"{owner}.{name} must be {kind}, got {_fmt(value)}.")
 
 
+def _init_names(cls: type) -> frozenset[str]:
+    """The keywords a dataclass's constructor takes: its init fields and its ``InitVar`` pseudo-fields."""
+    params = inspect.signature(cls.__init__).parameters.values()  # type: ignore[misc]
+    return frozenset(p.name for p in params if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD) and p.name != "self")
+
+
 class UnknownParameterError(ValidationError, TypeError):
     """A keyword an IR type does not have (a ``TypeError`` too, as Python raises for unknown keywords)."""
 
@@ -146,7 +153,7 @@ class IRNode:
     __slots__ = ()
 
     def __new__(cls, *args: Any, **kwargs: Any) -> IRNode:
-        names = {f.name for f in dataclasses.fields(cls) if f.init} if dataclasses.is_dataclass(cls) else set()
+        names = _init_names(cls) if dataclasses.is_dataclass(cls) else frozenset()
         unknown = [k for k in kwargs if k not in names]
         if names and unknown:
             raise UnknownParameterError(
