@@ -18,6 +18,12 @@ Limits (both overridable, read when a check runs):
   ``1e13``). On this project's development machine the reference backend does
   about 10^8 to 10^9 such operations per second, so the default is minutes to hours
   of CPU time for one run.
+- **populations and projections**: how many one network may hold, default
+  :data:`DEFAULT_MAX_NODES`; ``NEUROVPR_MAX_NODES`` sets another number. Each one is
+  decoded, validated, partitioned onto cores and stepped by Python code of its own
+  (tens of microseconds to milliseconds each, in every loader, partitioner and
+  backend), so their number bounds the work of loading, ``check`` and ``energy``
+  whatever their sizes; a file past it is refused before its graph is decoded.
 
 The estimates are deliberately simple upper bounds (8-byte values, a few arrays per
 neuron and per synapse); they exist to turn an impossible request into a clear
@@ -40,6 +46,9 @@ from neurovpr.errors import ValidationError
 __all__ = [
     "ResourceLimitError",
     "DEFAULT_MAX_WORK",
+    "DEFAULT_MAX_NODES",
+    "node_limit",
+    "require_nodes",
     "memory_limit",
     "work_limit",
     "format_bytes",
@@ -54,13 +63,15 @@ __all__ = [
 
 #: Default limit on the operations of one simulation (``NEUROVPR_MAX_WORK`` overrides it).
 DEFAULT_MAX_WORK = 1e12
+#: Default limit on the populations plus projections of one network (``NEUROVPR_MAX_NODES`` overrides it).
+DEFAULT_MAX_NODES = 10_000
 #: Operations counted for every simulated step regardless of size (loop and bookkeeping cost).
 STEP_COST = 1000.0
 #: Fraction of all synapses assumed to carry a spike in one step (a generous upper bound).
 ACTIVITY = 0.02
 _BYTES_PER_SYNAPSE = 48  # pre, post, weight, delay (8 bytes each) and room for copies made while building
 _BYTES_PER_PLASTIC_SYNAPSE = 80  # plus traces and the per-step weight bookkeeping of learning rules
-_MEMORY_ENV, _WORK_ENV = "NEUROVPR_MAX_MEMORY", "NEUROVPR_MAX_WORK"
+_MEMORY_ENV, _WORK_ENV, _NODES_ENV = "NEUROVPR_MAX_MEMORY", "NEUROVPR_MAX_WORK", "NEUROVPR_MAX_NODES"
 _UNITS = {"": 1, "K": 1024, "M": 1024**2, "G": 1024**3, "T": 1024**4, "P": 1024**5}
 
 
@@ -113,6 +124,31 @@ def work_limit() -> tuple[float, str]:
             raise ValidationError(f"{_WORK_ENV}={text!r} must be a positive number of operations (e.g. 1e13).")
         return value, _WORK_ENV
     return DEFAULT_MAX_WORK, f"the default; set {_WORK_ENV} to change it"
+
+
+def node_limit() -> tuple[int, str]:
+    """``(count, where the limit comes from)``: ``NEUROVPR_MAX_NODES`` or :data:`DEFAULT_MAX_NODES`."""
+    text = os.environ.get(_NODES_ENV)
+    if text:
+        if not text.strip().isdigit() or int(text) < 1:
+            raise ValidationError(f"{_NODES_ENV}={text!r} must be a positive whole number (e.g. 100000).")
+        return int(text), _NODES_ENV
+    return DEFAULT_MAX_NODES, f"the default; set {_NODES_ENV} to change it"
+
+
+def require_nodes(populations: int, projections: int, what: str, kinds: tuple[str, str] = ("populations", "projections")) -> None:
+    """Refuse ``what`` (a network or a file) when it holds more populations and projections than the limit.
+
+    ``kinds`` names the two counts (a NIR graph has nodes and edges). The sentence
+    reads ``"<what> holds 200000 populations and 0 projections (200000 in all); the
+    limit is 10000 (...)."``.
+    """
+    limit, source = node_limit()
+    if populations + projections > limit:
+        raise ResourceLimitError(
+            f"{what} holds {populations} {kinds[0]} and {projections} {kinds[1]} "
+            f"({populations + projections} in all); the limit is {limit} ({source})."
+        )
 
 
 def format_bytes(n: float) -> str:
@@ -261,6 +297,7 @@ def check_network(network: Any, *, dt: float, what: str = "compile", copies: int
     projection that dominates), e.g. ``"compile: network 'n' needs about 175.0 TiB
     of memory, most of it for population 'a' (10^12 neurons); the limit is ..."``.
     """
+    require_nodes(len(network.populations), len(network.projections), f"{what}: network {network.name!r}")
     est = estimate_network(network, dt=dt)
     times = f" x {copies} at once" if copies > 1 else ""
     require_memory(est.memory * copies, f"{what}: network {network.name!r}{times}", f" (most of it for {est.largest()})")

@@ -87,6 +87,7 @@ class LoCSNetPlugin(ModelPlugin):
         """Train into ``args.out``; see the module docstring."""
         from .architecture import paper_architecture, small_architecture
         from .conversion import SpikingParameters, layer_populations, to_spiking_network
+        from .estimate import check_resources
         from .runs import write_run
 
         t_start = time.perf_counter()
@@ -101,15 +102,18 @@ class LoCSNetPlugin(ModelPlugin):
         if getattr(args, "scheduler", None):
             raise ValidationError("LoCS-Net trains one network in one process; --scheduler is not supported for it.")
         settings = self._settings(args)
-        traverse, labels, positions_used = self._labels(args)
-        arch = (paper_architecture if args.preset == "paper" else small_architecture)(labels.n_places)
-        if args.conv_bias:
-            arch = dataclasses.replace(arch, conv_bias=True)
-        size = arch.input_size
         groups = args.feature_groups if args.feature_groups is not None else (8 if args.preset == "paper" else 1)
         spiking = SpikingParameters(dt=args.dt, tau_syn=args.tau_syn, input_rate=args.input_rate,
                                     presentation=args.presentation, input_coding=args.input_coding,
                                     feature_groups=groups)
+        make_arch = paper_architecture if args.preset == "paper" else small_architecture
+        check_resources(make_arch(2), batch_size=settings.batch_size, spiking=spiking,
+                        calibration_images=args.calibration_images)  # before the data is read: 2 places at least
+        traverse, labels, positions_used = self._labels(args)
+        arch = make_arch(labels.n_places)
+        if args.conv_bias:
+            arch = dataclasses.replace(arch, conv_bias=True)
+        size = arch.input_size
         layer_populations(arch, spiking)  # a bad grouping fails before training
         weight_format = None
         if settings.quantise:

@@ -24,6 +24,7 @@ from tqdm.auto import tqdm
 import neurovpr as nv
 from neurovpr.data.events import PNSpikes
 from neurovpr.errors import ValidationError
+from neurovpr.resources import check_run
 from neurovpr.runtime.simulation import Simulation
 
 from .network import KC_KC, MBSNNParameters
@@ -135,11 +136,12 @@ def present(
     """
     n_pn = sim.network.populations["input"].size
     check_recording(spikes, "the recording", n_pn)
+    total_steps = max(round(spikes.duration_ms / sim.dt), 1)
+    check_run(sim.network, dt=sim.dt, steps=total_steps, what=f"mbsnn: {spikes.duration_ms:g} ms of PN spikes")
     sim.reset()
     sim.plasticity(bool(learn))
     sim.record("mbon", "v")
-    total = spikes.duration_ms
-    steps = max(round(total / sim.dt), 1)
+    total, steps = spikes.duration_ms, total_steps
     chunk = max(round(chunk_ms / sim.dt), 1)
     inputs: dict[str, Any] | None = {"input": spikes.to_source()}
     with tqdm(total=round(total / 1000.0, 3), unit="s", desc=progress, disable=progress is None, leave=False) as bar:

@@ -97,13 +97,16 @@ import numpy as np
 import neurovpr as nv
 from neurovpr.data.events import PNSpikes
 from neurovpr.errors import ValidationError
+from neurovpr.ir.connectors import Connector
 from neurovpr.ir.node import IRNode, param
+from neurovpr.resources import estimate_network, format_bytes, require_memory
 
 __all__ = [
     "MBSNNParameters",
     "POPULATIONS",
     "KC_KC",
     "build_network",
+    "check_resources",
     "pn_kc_connections",
     "kc_kc_connections",
     "paper_neuron_count",
@@ -286,17 +289,26 @@ def build_network(n_pn: int, params: MBSNNParameters | None = None, *, seed: int
     if isinstance(n_pn, bool) or not isinstance(n_pn, (int, np.integer)) or n_pn < 1:
         raise ValidationError(f"build_network: n_pn must be an integer >= 1, got {n_pn!r}.")
     n_pn = int(n_pn)
-    net = nv.Network(name)
+    check_resources(n_pn, params, what="build_network")
     empty = nv.SpikeSourceArray(times=np.zeros(0), offsets=np.zeros(n_pn + 1, dtype=np.int64))
-    net.add_population("input", n_pn, empty)
+    shared = nv.FromListConnector(conn_list=pn_kc_connections(n_pn, params, seed))
+    return _assemble(n_pn, params, empty, shared, nv.FromListConnector(conn_list=kc_kc_connections(params, seed)), name)
+
+
+def _assemble(
+    n_pn: int, params: MBSNNParameters, source: nv.SpikeSourceArray | nv.SpikeSourcePoisson, pn_kc: Connector,
+    kc_kc: Connector, name: str,
+) -> nv.Network:  # fmt: skip
+    """The graph with the given input cells and PN->KC and KC->KC connectors."""
+    net = nv.Network(name)
+    net.add_population("input", n_pn, source)
     net.add_population("pn", n_pn, params.pn)
     net.add_population("kc1", params.n_kc, params.kc)
     net.add_population("kc2", params.n_kc, params.kc)
     net.add_population("mbon", 1, params.mbon)
     net.connect("input", "pn", nv.OneToOneConnector(), nv.StaticSynapse(weight=params.input_weight))
-    shared = nv.FromListConnector(conn_list=pn_kc_connections(n_pn, params, seed))
-    net.connect("pn", "kc1", shared, nv.StaticSynapse())
-    net.connect("pn", "kc2", shared, nv.StaticSynapse())
+    net.connect("pn", "kc1", pn_kc, nv.StaticSynapse())
+    net.connect("pn", "kc2", pn_kc, nv.StaticSynapse())
     stdp = nv.STDPMechanism(
         timing_dependence=nv.SpikePairRule(
             tau_plus=params.tau_plus, tau_minus=params.tau_minus, A_plus=params.A_plus, A_minus=params.A_minus
@@ -304,12 +316,35 @@ def build_network(n_pn: int, params: MBSNNParameters | None = None, *, seed: int
         weight_dependence=nv.AdditiveWeightDependence(w_min=0.0, w_max=params.w_max),
         weight=0.0,
     )
-    net.connect(
-        "kc1", "kc2", nv.FromListConnector(conn_list=kc_kc_connections(params, seed)), stdp,
-        receptor_type="inhibitory", name=KC_KC,
-    )  # fmt: skip
+    net.connect("kc1", "kc2", kc_kc, stdp, receptor_type="inhibitory", name=KC_KC)
     net.connect("kc2", "mbon", nv.AllToAllConnector(), nv.StaticSynapse(weight=params.mbon_weight))
     return net
+
+
+def check_resources(n_pn: int | None, params: MBSNNParameters, *, what: str = "train") -> None:
+    """Refuse, before anything is drawn or built, a mushroom body past the memory limit.
+
+    Counts the random keys and their sort order that draw the PN->KC and KC->KC wiring
+    (16 bytes per KC and candidate partner) and the network itself
+    (:func:`neurovpr.resources.estimate_network` of the same graph with random
+    connectors of the same in-degrees standing in for the drawn lists). ``n_pn=None``
+    (the data decides it and is not read yet) counts one PN: the Kenyon-cell side alone.
+
+    Raises
+    ------
+    neurovpr.resources.ResourceLimitError
+        One sentence naming the sizes, the estimate and the limit.
+    """
+    n = 1 if n_pn is None else int(n_pn)
+    wiring = 16.0 * params.n_kc * (n + params.group_size)
+    pns = "PNs from the data" if n_pn is None else f"{n} PNs"
+    what = f"{what}: the mushroom body with {params.n_kc} Kenyon cells in {params.kc_groups} subgroup(s) and {pns}"
+    require_memory(wiring, what, " to draw its wiring")  # before the stand-in below is built
+    degree = nv.Normal(mu=params.pn_kc_degree_mean, sigma=params.pn_kc_degree_sd)
+    targets = nv.FixedNumberPreConnector(params.targets_per_kc)
+    stand_in = _assemble(n, params, nv.SpikeSourcePoisson(rate=0.0), nv.FixedNumberPreConnector(degree), targets, "mbsnn")
+    total = wiring + estimate_network(stand_in, dt=params.dt).memory
+    require_memory(total, what, f" ({format_bytes(wiring)} of it to draw the wiring)")
 
 
 def paper_neuron_count(network: nv.Network) -> dict[str, int]:

@@ -26,7 +26,7 @@ from neurovpr.errors import FileFormatError, ValidationError
 from neurovpr.fileio import atomic_write_bytes, atomic_write_text
 
 from .model import check_recording, compile_mbsnn, present
-from .network import KC_KC, MBSNNParameters, build_network, paper_neuron_count
+from .network import KC_KC, MBSNNParameters, build_network, check_resources, paper_neuron_count
 
 __all__ = [
     "parse_segment",
@@ -155,6 +155,7 @@ def train(
     }  # fmt: skip
     if resume and (done := _existing_run(out, settings)) is not None:
         return done
+    check_resources(n_pn, params)  # before the recording is read
     spikes = load_recording(data, n_pn=n_pn, trim=trim, stretch=stretch, what="training recording")
     segment = spikes.segment(start, end)
     check_recording(segment, f"the learned segment {start}:{end} of {str(data)!r}")

@@ -15,6 +15,7 @@ from typing import Any
 
 from neurovpr.errors import ValidationError
 from neurovpr.ir.network import Network
+from neurovpr.resources import require_nodes
 
 from .hwspec import HwSpec, load_hwspec
 from .partition import Partition, partition
@@ -157,6 +158,7 @@ def check_network(network: Network, hardware: str | HwSpec, *, seed: int = 0, dt
     """
     if not isinstance(network, Network):
         raise ValidationError(f"check: expected a neurovpr Network, got {type(network).__name__}.")
+    require_nodes(len(network.populations), len(network.projections), f"check: network {network.name!r}")
     spec = hardware if isinstance(hardware, HwSpec) else load_hwspec(hardware)
     if dt is not None:
         if isinstance(dt, bool) or not isinstance(dt, (int, float)) or not math.isfinite(dt) or dt <= 0:

@@ -50,6 +50,7 @@ from neurovpr.ir.distributions import DISTRIBUTIONS
 from neurovpr.ir.network import Network, Population, Projection
 from neurovpr.ir.node import IRNode
 from neurovpr.ir.synapses import SYNAPSE_TYPES
+from neurovpr.resources import require_nodes
 from neurovpr.runtime.simulation import Simulation
 
 __all__ = ["save", "load", "FORMAT_NAME", "FORMAT_VERSION", "NODE_TYPES"]
@@ -402,4 +403,6 @@ def load(path: str | os.PathLike) -> Network:
         graph = json.loads(graph_text, parse_constant=reject_constant)
     except (ValueError, RecursionError) as exc:
         raise _error(target, f"has a graph that is not valid JSON ({_reason(exc)})") from None
+    if isinstance(graph, dict) and all(isinstance(graph.get(k), list) for k in ("populations", "projections")):
+        require_nodes(len(graph["populations"]), len(graph["projections"]), f"Network file {target!r}")
     return _Decoder(target, arrays).network(name, graph)

@@ -140,9 +140,10 @@ class PNSpikes(IRNode):
             )
         n_windows = max(int(np.ceil(self.duration_ms / window_ms)), 1)
         which = np.minimum((self.times_ms // window_ms).astype(np.int64), n_windows - 1)
-        counts = np.bincount(which, minlength=n_windows)
-        level = fraction * np.percentile(counts, 75)
-        active = np.flatnonzero(counts >= max(level, 1))
+        # counts of the windows that hold spikes only: memory grows with the spikes, not the duration
+        windows, counts = np.unique(which, return_counts=True)
+        level = fraction * _percentile_with_zeros(counts, n_windows, 75.0)
+        active = windows[counts >= max(level, 1)]
         if active.size == 0:
             raise ValidationError("PNSpikes.active_interval: the recording has no spikes.")
         return float(active[0] * window_ms), float(min((active[-1] + 1) * window_ms, self.duration_ms))
@@ -151,6 +152,19 @@ class PNSpikes(IRNode):
         """The :meth:`active_interval` of the recording, times restarting at 0."""
         start, end = self.active_interval(window_ms=window_ms, fraction=fraction)
         return self.window(start, end)
+
+
+def _percentile_with_zeros(counts: np.ndarray, n: int, q: float) -> float:
+    """``np.percentile(full, q)`` of ``n`` values: ``counts`` and ``n - counts.size`` zeros (never built)."""
+    values = np.sort(counts)
+    zeros = n - values.size
+    pos = q / 100.0 * (n - 1)
+    lo, hi = int(np.floor(pos)), int(np.ceil(pos))
+
+    def at(i: int) -> float:
+        return 0.0 if i < zeros else float(values[i - zeros])
+
+    return at(lo) + (at(hi) - at(lo)) * (pos - lo)
 
 
 def stretch_time(spikes: PNSpikes, factor: float) -> PNSpikes:

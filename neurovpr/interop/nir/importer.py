@@ -23,7 +23,7 @@ from neurovpr.ir.cells import SpikeSourceArray
 from neurovpr.ir.connectors import AllToAllConnector, ConvolutionConnector, FromListConnector, OneToOneConnector
 from neurovpr.ir.network import Network, Population, Projection
 from neurovpr.ir.synapses import StaticSynapse
-from neurovpr.resources import require_memory
+from neurovpr.resources import require_memory, require_nodes
 
 from .linear import Op, compose, op_from_node
 from .mapping import NEURON_NODES, cell_from_node
@@ -324,6 +324,7 @@ def _recurrent(net: Network) -> list[str]:
 def graph_to_network(graph: Any, *, name: str, dt: float, integration: str) -> NIRImport:
     """Build the IR network of a NIR graph (no metadata shortcut; see :func:`neurovpr.interop.nir.import_nir`)."""
     nodes, roles, edges = flatten_graph(graph)
+    require_nodes(len(nodes), len(edges), f"NIR graph {name!r}", kinds=("nodes", "edges"))
     b = _Builder(nodes, roles, edges, dt, integration)
     b.infer_shapes()
     taken: set[str] = set()
