@@ -6,7 +6,8 @@ Conv with a delay, injectors for spike sources and extractors for spikes) and ru
 the ``floating_pt`` models (off-chip), ``lava-fixed`` the ``fixed_pt`` models,
 bit-accurate with Loihi 2's number formats. They run inference: ``IF_curr_exp``
 populations with fixed weights, every connector, Poisson and array sources. See
-:mod:`.translation` for the mapping and the fixed-point formats.
+:mod:`.translation` for the mapping, and :mod:`neurovpr.backendkit.loihi2` for the
+fixed-point integers (Loihi 2's formats, read from the ``loihi2`` hwspec).
 
 lava-nc 0.10.0 declares Python 3.10 only; on Python 3.11 it is installed with
 scripts/install_lava.sh and imported through :mod:`.compat`, which fixes its one

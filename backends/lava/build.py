@@ -29,14 +29,16 @@ from typing import Any
 import numpy as np
 import scipy.sparse
 
+from neurovpr.backendkit.loihi2 import weight_integers
 from neurovpr.backendkit.timing import delay_steps
+from neurovpr.hardware.hwspec import load_hwspec
 from neurovpr.ir.connectivity import Connections
 from neurovpr.ir.connectors import ConvolutionConnector
 from neurovpr.ir.network import Network, Projection
 
 from . import resets
 from .compat import import_lava
-from .translation import LavaLIF, fixed_weights, lava_lif, weight_scale
+from .translation import LavaLIF, lava_lif, weight_scale
 
 __all__ = ["LavaNetwork", "build_network", "receptors_by_population"]
 
@@ -50,6 +52,7 @@ class LavaNetwork:
 
     fixed: bool
     buffer_steps: int
+    formats: Any = None
     params: dict[str, LavaLIF] = field(default_factory=dict)
     lifs: dict[str, Any] = field(default_factory=dict)
     extractors: dict[str, Any] = field(default_factory=dict)
@@ -96,12 +99,12 @@ def _lif_process(params: LavaLIF, size: int, fixed: bool) -> Any:
         kwargs: dict[str, Any] = {
             "shape": (size,),
             "u": np.zeros(size, dtype=np.int64),
-            "v": params.v_init_int,
-            "du": params.du_int,
-            "dv": params.dv_int,
-            "vth": params.fixed_v,
-            "bias_mant": params.bias_mant,
-            "bias_exp": params.bias_exp,
+            "v": params.integers.v_init,
+            "du": params.integers.du,
+            "dv": params.integers.dv,
+            "vth": params.integers.vth_man,
+            "bias_mant": params.integers.bias_man,
+            "bias_exp": params.integers.bias_exp,
         }
     else:
         kwargs = {
@@ -119,25 +122,31 @@ def _lif_process(params: LavaLIF, size: int, fixed: bool) -> Any:
     return resets.ResettableLIF(**kwargs)
 
 
+def _fixed_weights(
+    lava: Any, values: np.ndarray, fmt: Any, *, like: np.ndarray | None = None
+) -> tuple[np.ndarray, dict[str, Any]]:
+    """One synapse process's integer weights and the Lava arguments of its format (exponent, bits, sign mode)."""
+    quant = weight_integers(values, fmt, like=like)
+    sign = getattr(lava.SignMode, quant.sign_mode.upper())
+    return quant.mantissa, {"weight_exp": quant.exp, "num_weight_bits": fmt.weight_bits, "sign_mode": sign}
+
+
 def _uniform_scale(scale: np.ndarray) -> bool:
     return bool(scale.size == 0 or np.all(scale == scale[0]))
 
 
 def _conv_process(
-    proj: Projection, conn: ConvolutionConnector, kernel: np.ndarray, used: np.ndarray, *, delay: int, fixed: bool
+    proj: Projection, conn: ConvolutionConnector, kernel: np.ndarray, used: np.ndarray, *, delay: int, fmt: Any
 ) -> Any:
     """A (resettable) :class:`~.connections.DelayConv` for a convolution whose kernel and connection values are scaled.
 
     ``used`` are the values the expanded connections carry (what the ``DelaySparse``
-    path quantises): a fixed-point kernel gets their exponent and sign mode.
+    path quantises): a fixed-point kernel (``fmt``, the ``loihi2`` hwspec's ``[formats]``, when
+    fixed) gets their exponent and sign mode.
     """
     extra: dict[str, Any] = {}
-    if fixed:
-        lava = import_lava()
-        quant = fixed_weights(kernel, like=used)
-        kernel = quant.mantissa
-        sign = {"excitatory": "EXCITATORY", "inhibitory": "INHIBITORY", "mixed": "MIXED"}[quant.sign_mode]
-        extra = {"weight_exp": quant.exp, "num_weight_bits": 8, "sign_mode": getattr(lava.SignMode, sign)}
+    if fmt is not None:
+        kernel, extra = _fixed_weights(import_lava(), kernel, fmt, like=used)
     (c, h, w), (sh, sw), (ph, pw) = conn.input_shape, conn.stride, conn.padding
     # Lava convolves (flipped kernel) in (x, y, channel) order; neurovpr correlates in (channel, y, x)
     weight = np.ascontiguousarray(kernel[:, :, ::-1, ::-1].transpose(0, 3, 2, 1))
@@ -154,22 +163,23 @@ def _matrix_process(
     shape: tuple[int, int],
     *,
     delay: int,
-    fixed: bool,
+    fmt: Any,
     v_post: float,
     name: str,
 ) -> Any:
     """``Dense``/``Sparse`` for ``delay == 0`` (one step, their own timing), else ``DelayDense``/``DelaySparse``.
 
-    Each is the resettable version of :mod:`.resets`.
+    Each is the resettable version of :mod:`.resets`; ``fmt`` (the ``loihi2`` hwspec's
+    ``[formats]``) makes its weights fixed point, ``None`` keeps them float.
     """
+    fixed = fmt is not None
     matrix = scipy.sparse.coo_matrix((values, (post, pre)), shape=shape).tocsr()
     matrix.sum_duplicates()
     kwargs: dict[str, Any] = {"name": name}
     if fixed:
-        quant = fixed_weights(matrix.data * v_post)
-        matrix.data = quant.mantissa.astype(np.float64)
-        sign = {"excitatory": "EXCITATORY", "inhibitory": "INHIBITORY", "mixed": "MIXED"}[quant.sign_mode]
-        kwargs.update(weight_exp=quant.exp, num_weight_bits=8, sign_mode=getattr(lava.SignMode, sign))
+        mantissa, extra = _fixed_weights(lava, matrix.data * v_post, fmt)
+        matrix.data = mantissa.astype(np.float64)
+        kwargs.update(extra)
     if matrix.nnz > _DENSE_FRACTION * shape[0] * shape[1]:
         dense = matrix.toarray().astype(np.int64) if fixed else matrix.toarray()
         if delay == 0:
@@ -199,11 +209,11 @@ def _build_projection(
     extra = (steps - 1) if from_source else steps
     made: list[Any] = []
     conn = proj.connector
-    v_post = params.fixed_v if built.fixed else 1.0
+    v_post = params.integers.vth_man if built.fixed else 1.0
     if isinstance(conn, ConvolutionConnector) and steps.size and np.all(steps == steps[0]) and _uniform_scale(scale):
         kernel = np.asarray(proj.synapse.weight, dtype=np.float64) * scale[0] * v_post
         used = weights * scale[conns.post] * v_post
-        process = _conv_process(proj, conn, kernel, used, delay=int(extra[0]), fixed=built.fixed)
+        process = _conv_process(proj, conn, kernel, used, delay=int(extra[0]), fmt=built.formats)
         pre_port.reshape(conn.input_shape).transpose([2, 1, 0]).connect(process.s_in)
         process.a_out.transpose([2, 1, 0]).reshape((n_post,)).connect(post_lif.a_in)
         built.synapses[proj.name] = [process]
@@ -220,8 +230,8 @@ def _build_projection(
             values,
             (n_post, n_pre),
             delay=int(k),
-            fixed=built.fixed,
-            v_post=params.fixed_v,
+            fmt=built.formats,
+            v_post=params.integers.vth_man,
             name=proj.name,
         )
         pre_port.connect(process.s_in)
@@ -277,14 +287,15 @@ def build_network(
         one Lava run call may take.
     """
     lava = import_lava()
-    built = LavaNetwork(fixed=fixed, buffer_steps=buffer_steps)
+    fmt = load_hwspec("loihi2").formats
+    built = LavaNetwork(fixed=fixed, buffer_steps=buffer_steps, formats=fmt if fixed else None)
     receptors = receptors_by_population(network)
     for name, pop in network.populations.items():
         if pop.is_source:
             if any(p.pre == name for p in network.projections.values()):
                 built.injectors[name] = lava.Injector(shape=(pop.size,), buffer_size=buffer_steps)
             continue
-        params = lava_lif(pop, dt, receptors[name])
+        params = lava_lif(pop, dt, fmt, receptors[name])
         built.params[name] = params
         lif = _lif_process(params, pop.size, fixed)
         built.resettable.append(lif)

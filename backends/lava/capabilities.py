@@ -17,6 +17,7 @@ import numpy as np
 
 from neurovpr.backendkit.capabilities import CURRENT_LIF, EVERY_CONNECTOR, STATIC_SYNAPSE
 from neurovpr.backendkit.timing import delay_steps
+from neurovpr.hardware.hwspec import load_hwspec
 from neurovpr.ir.cells import IF_curr_exp
 from neurovpr.ir.connectivity import Connections
 from neurovpr.ir.network import Network
@@ -99,10 +100,11 @@ def compile_problems(network: Network, connections: dict[str, Connections], dt: 
                     f"delay {steps.max() * dt:g} ms = {steps.max()} steps (projection {name!r}; "
                     f"Loihi 2 delays are at most {_MAX_FIXED_DELAY} steps)"
                 )
+        fmt = load_hwspec("loihi2").formats
         for pop in network.populations.values():
             if isinstance(pop.cell_type, IF_curr_exp):
                 try:
-                    lava_lif(pop, dt)
+                    lava_lif(pop, dt, fmt)
                 except ValueError as exc:
                     problems.append(str(exc))
     return problems

@@ -163,7 +163,7 @@ class LavaSimulation(HostedSimulation):
         params = self._built.params[name]
         v = np.asarray(self._built.lifs[name].v.get(), dtype=np.float64)
         if self._fixed:
-            v = v / (64.0 * params.fixed_v)
+            v = v / params.integers.v_scale
         return params.compartment.to_mv(v)
 
     def _reset(self) -> None:

@@ -17,6 +17,8 @@ from typing import Any
 import numpy as np
 import scipy.sparse
 
+from neurovpr.backendkit import loihi2
+from neurovpr.backendkit.lif import current_factor
 from neurovpr.backendkit.params import per_neuron
 from neurovpr.errors import UnsupportedFeatureError, ValidationError
 from neurovpr.hardware.cores import Partition
@@ -25,7 +27,6 @@ from neurovpr.ir.connectors import ConvolutionConnector
 from neurovpr.ir.network import Network
 
 from . import kernels_fixed as kf
-from . import loihi2_mapping as loihi2
 
 __all__ = ["FixedLayout", "quantise", "decay_magnitude", "COND_SHIFT"]
 
@@ -78,7 +79,7 @@ def decay_magnitude(decay: np.ndarray, x0: float, bits: int, offset: int = 0) ->
 
 def _kappa_scale(tau_syn: float, tau_m: float, dt: float) -> float:
     """``kappa dt_s / (1 - e_s)``: a weight (nA) to the compartment input of one spike of height ``1 / dt_s``."""
-    return loihi2.kappa(tau_syn, tau_m, dt) * (dt / 1000.0) / (1.0 - math.exp(-dt / tau_syn))
+    return current_factor(tau_syn, tau_m, dt) * (dt / 1000.0) / (1.0 - math.exp(-dt / tau_syn))
 
 
 def _float_weights(network: Network, lay: Any, dt: float, gains: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
@@ -277,7 +278,7 @@ def _ring_columns(
 
 # -- Loihi 2 ------------------------------------------------------------------------
 def _quantise_loihi2(network: Network, spec: Any, lay: Any, dt: float) -> FixedLayout:
-    """Loihi 2: each population as the ``lava-fixed`` backend maps it (:mod:`.loihi2_mapping`), one weight
+    """Loihi 2: each population as the ``lava-fixed`` backend maps it (:mod:`neurovpr.backendkit.loihi2`), one weight
     exponent per synapse group (one Lava synapse process per projection and delay)."""
     fmt = spec.formats
     params = np.zeros((lay.n, kf.N_LOIHI_COLS), dtype=np.int64)
@@ -292,13 +293,15 @@ def _quantise_loihi2(network: Network, spec: Any, lay: Any, dt: float) -> FixedL
         projs = [p for p in network.projections.values() if p.post == pop.name]
         lif = loihi2.lif_integers(pop, dt, fmt, inhibitory_only={p.receptor_type for p in projs} == {"inhibitory"})
         rows = np.arange(lay.offsets[pop.name][0], lay.offsets[pop.name][1])
-        for col, key in ((kf.L_RU, "ru"), (kf.L_RV, "rv"), (kf.L_BIAS, "bias"), (kf.L_VTH, "vth"), (kf.L_REF, "ref"),
-                         (kf.L_V_INIT, "v_init")):  # fmt: skip
-            params[rows, col] = lif[key]
+        for col, value in ((kf.L_RU, lif.ru), (kf.L_RV, lif.rv), (kf.L_BIAS, lif.bias_int), (kf.L_VTH, lif.vth),
+                           (kf.L_REF, lif.ref), (kf.L_V_INIT, lif.v_init)):  # fmt: skip
+            params[rows, col] = value
         _set_voltage_range(params, rows, fmt)
-        v_unit[rows] = lif["v_unit"]
-        kept = ("du", "dv", "ref", "v_scale", "vth_man", "vth", "bias_man", "bias_exp", "bias")
-        blocks.append({"population": pop.name, "lo": 0, "hi": pop.size, **{k: lif[k] for k in kept}})
+        v_unit[rows] = lif.v_unit
+        full = np.ones(pop.size, dtype=np.int64)
+        blocks.append({"population": pop.name, "lo": 0, "hi": pop.size, "du": lif.du * full, "dv": lif.dv * full,
+                       "ref": lif.ref, "v_scale": lif.v_scale, "vth_man": lif.vth_man * full, "vth": lif.vth * full,
+                       "bias_man": lif.bias_man, "bias_exp": lif.bias_exp, "bias": lif.bias_int})  # fmt: skip
         for proj in projs:
             pos = lay.proj_static[proj.name]
             pre, post = lay.proj_pre[proj.name], lay.proj_post[proj.name]
@@ -312,7 +315,8 @@ def _quantise_loihi2(network: Network, spec: Any, lay: Any, dt: float) -> FixedL
                 first = sel[np.unique(post[sel] * n_pre + pre[sel], return_index=True)[1]]
                 summed = np.asarray(matrix[post[first], pre[first]], dtype=np.float64).reshape(-1)
                 where = f"Projection {proj.name!r} (delay {int(lay.s_delay[pos[sel[0]]]) * dt:g} ms)"
-                s_val[pos[first]], s_exp[pos[sel]] = loihi2.weight_integers(summed * lif["vth_man"][0], fmt, where)
+                quant = loihi2.weight_integers(summed * lif.vth_man, fmt, where=where)
+                s_val[pos[first]], s_exp[pos[sel]] = quant.mantissa, quant.exp
     weights = {name: {"value": s_val[pos], "exponent": s_exp[pos]} for name, pos in lay.proj_static.items()}
     s_gp, gp_post, gp_exp, n_gp = _ring_columns(s_group, s_exp, lay.s_post, lay.n)
     return FixedLayout(variant="loihi2", params=params, s_val=s_val, s_gp=s_gp, gp_post=gp_post, gp_exp=gp_exp,

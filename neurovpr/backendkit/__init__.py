@@ -10,6 +10,8 @@ backend:
 - :mod:`.sources` -- spike sources drawn on the host, and their seeding;
 - :mod:`.lif` -- an ``IF_curr_exp`` population as a normalised compartment (threshold 1,
   reset 0), the form Nengo, Lava and Loihi compute in;
+- :mod:`.loihi2` -- that compartment and its synapse groups as Loihi 2's integers, with the
+  limits of a hwspec's ``[formats]`` (Lava's ``fixed_pt`` models and the ``loihi2`` emulation);
 - :mod:`.readout` -- spike counts, spike trains and activity counts read back from rasters;
 - :mod:`.hosted` -- a :class:`~neurovpr.runtime.simulation.Simulation` base for backends
   that run neurovpr's expanded connections and read spikes back as rasters;

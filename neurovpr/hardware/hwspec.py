@@ -115,6 +115,9 @@ class Formats:
     bias_mantissa_bits: int = spec_field("int", low=1)
     bias_exponent_max: int = spec_field("int", low=0)
     accumulator_bits: int = spec_field("int", low=1)
+    #: Bits a mapping keeps in ``u`` and ``v`` above the threshold (Loihi 2: the largest threshold
+    #: integer is ``2**(voltage_bits - 1 - threshold_exponent - voltage_headroom_bits)``).
+    voltage_headroom_bits: int | None = spec_field("int", optional=True, low=0)
     #: The integer arithmetic these formats are computed in (its update order, rounding and
     #: overflow rules): ``"loihi1"`` (NengoLoihi 1.1's emulator), ``"loihi2"`` (Lava 0.10's
     #: bit-accurate models), ``"spinnaker"`` (sPyNNaker 7.4's LIF). A backend emulates a hwspec

@@ -100,9 +100,9 @@ def lava_integer_difference(mine, theirs) -> str | None:
     q, lay, net = mine.quantised, mine._lay, mine.network
     for b in q.blocks:
         name = b["population"]
-        lif = theirs._built.params[name]
-        pairs = (("vth_man", lif.fixed_v), ("bias_man", lif.bias_mant), ("bias_exp", lif.bias_exp), ("du", lif.du_int),
-                 ("dv", lif.dv_int), ("ref", lif.refractory_steps + 1))  # fmt: skip
+        lif, proc = theirs._built.params[name], theirs._built.lifs[name]  # the integers the Lava process was given
+        pairs = (("vth_man", proc.vth.init), ("bias_man", proc.bias_mant.init), ("bias_exp", proc.bias_exp.init),
+                 ("du", proc.du.init), ("dv", proc.dv.init), ("ref", lif.refractory_steps + 1))  # fmt: skip
         for key, value in pairs:
             if not np.array_equal(b[key], np.broadcast_to(value, np.shape(b[key]))):
                 return f"{name}: {key} {np.unique(b[key])} here, {np.unique(value)} in Lava"

@@ -9,7 +9,8 @@ Loihi modes). This file covers what random networks do not reach:
   the conformance delay network, and the one known difference (the voltage floor);
 * ``loihi2`` against Lava's ``fixed_pt`` models (the ``lava-fixed`` backend): the issue-22
   network (one source projected through both receptors) membrane by membrane, and the
-  refusal of a weight exponent the chip cannot hold;
+  refusal of a weight exponent the chip cannot hold, and the backend kit's mapping taking every
+  limit from the hwspec's ``[formats]``;
 * ``spinn5``: in test_number_formats_spinnaker.py.
 """
 
@@ -289,3 +290,30 @@ def test_refusals_name_the_feature():
     loihi = nv.compile(lif, backend="reference", dt=1.0, seed=0, hardware="kapoho-bay")
     with pytest.raises(SimulationError, match="not recorded in the kapoho-bay formats"):
         loihi.record("n", "isyn_exc")
+
+
+def test_loihi2_mapping_takes_every_limit_from_the_hwspec():
+    """Check that the backend kit's Loihi 2 mapping (both backends' integers) follows ``[formats]``, not constants."""
+    import dataclasses
+
+    from neurovpr.backendkit import loihi2
+
+    fmt = load_hwspec("loihi2").formats
+    net = nv.Network("limits")
+    net.add_population("quiet", 3, nv.IF_curr_exp(v_rest=-65.0, v_reset=-65.0, i_offset=0.0))
+    pop = net.populations["quiet"]
+    ints = loihi2.lif_integers(pop, 1.0, fmt, inhibitory_only=False)
+    assert ints.vth_man == 2**14 and ints.vth == 2**20 and ints.du + 1 + ints.ru == 4096
+    roomier = dataclasses.replace(fmt, voltage_headroom_bits=5, threshold_exponent=4, decay_bits=10)
+    ints = loihi2.lif_integers(pop, 1.0, roomier, inhibitory_only=False)
+    assert ints.vth_man == 2 ** (24 - 1 - 4 - 5) and ints.vth == 2**18 and ints.du + 1 + ints.ru == 1024
+    with pytest.raises(ValidationError, match="voltage_headroom_bits"):
+        loihi2.lif_integers(pop, 1.0, load_hwspec("kapoho-bay").formats, inhibitory_only=False)
+    values = np.array([-3.0, 1.0, 200.0])
+    wide = loihi2.weight_integers(values, fmt)
+    assert (wide.exp, wide.sign_mode, wide.mantissa.tolist()) == (0, "mixed", [-4, 0, 200])
+    narrow = loihi2.weight_integers(values, dataclasses.replace(fmt, weight_bits=6, weight_mantissa_bits=4))
+    assert (narrow.exp, narrow.mantissa.tolist()) == (2, [0, 0, 48])  # 2 sign bits: 200 / 2**4 = 12.5 -> 12
+    with pytest.raises(ValidationError, match="weight exponent of 2"):
+        loihi2.weight_integers(values, dataclasses.replace(fmt, weight_bits=6, weight_mantissa_bits=4,
+                                                           weight_exponent_max=1), where="group")  # fmt: skip
