@@ -46,66 +46,81 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .convolution import (
-    CV_DELAY,
-    CV_KH,
-    CV_KW,
-    CV_O,
-    CV_OH,
-    CV_OW,
-    CV_POST0,
-    CV_REC,
-    CV_SH,
-    CV_SW,
-    CV_WOFF,
-)
-from .delivery import BLOCK_SHIFT
 from .prefetch import prefetch
-from .translation import (
+
+# The layouts of the arrays the kernels read, defined here (not imported) so that a change
+# to any of them changes this file and so invalidates numba's cache of the kernels;
+# translation.py, convolution.py and delivery.py import them from here.
+
+# Neuron kinds.
+KIND_CURR, KIND_COND, KIND_POISSON, KIND_ARRAY = 0, 1, 2, 3
+
+# Columns of the neuron parameter table.
+(
+    C_V_REST,
+    C_V_RESET,
+    C_V_THRESH,
+    C_I_OFFSET,
+    C_P22,  # exp(-dt/tau_m)
+    C_P20,  # (tau_m/cm)(1 - P22): i_offset -> v
+    C_P11E,  # exp(-dt/tau_syn_E)
+    C_P11I,
+    C_P21E,  # I_E(t) -> v over one step (current-based)
+    C_P21I,
+    C_FE,  # mean of a decaying conductance over one step, relative to its start value
+    C_FI,
+    C_GL,  # leak conductance cm/tau_m
     C_CM,
     C_E_REV_E,
     C_E_REV_I,
-    C_FE,
-    C_FI,
-    C_GL,
-    C_I_ALPHA,
-    C_I_OFFSET,
-    C_LOCK,
-    C_P11CA,
-    C_P11E,
-    C_P11I,
-    C_P20,
-    C_P21CA,
-    C_P21E,
-    C_P21I,
-    C_P22,
-    C_REFRAC,
-    C_THETA_DECAY,
     C_THETA_PLUS,
-    C_V_RESET,
-    C_V_REST,
-    C_V_THRESH,
-    F_ADAPTIVE,
-    F_CA,
-    F_INH,
-    G_FLAGS,
-    G_HI,
-    G_KIND,
-    G_LO,
-    KIND_CURR,
-    R_DEP,
-    R_KIND,
-    R_MU,
-    R_POT,
-    R_TAU_POST2,
-    R_TAU_PRE,
-    R_W_MAX,
-    R_W_MIN,
-    R_X_TAR,
-    RULE_ADDITIVE,
-    RULE_DIEHL_COOK,
-    RULE_MULTIPLICATIVE,
-)
+    C_THETA_DECAY,  # exp(-dt/tau_theta)
+    C_P11CA,  # exp(-dt/tau_ca2)
+    C_P21CA,  # I_ca2 -> v
+    C_I_ALPHA,
+    C_REFRAC,  # refractory steps (membrane held at v_reset)
+    C_LOCK,  # steps after the refractory ones in which the membrane integrates but may not fire (tau_lockout)
+    C_V_INIT,
+    C_I_CA_INIT,
+    N_COLS,
+) = range(26)
+
+# Columns that hold initial values, not parameters of the dynamics.
+INIT_COLS = (C_V_INIT, C_I_CA_INIT)
+
+# Columns of the group table, and the group flags.
+G_LO, G_HI, G_KIND, G_FLAGS, N_GROUP_COLS = range(5)
+#: The group receives inhibitory synapses (otherwise its inhibitory current stays 0).
+F_INH = 1
+#: The group has the Ca2+ adaptation current (otherwise it stays 0).
+F_CA = 2
+#: The group has an adaptive threshold.
+F_ADAPTIVE = 4
+
+# Rule kinds and columns of the plasticity rule table.
+RULE_ADDITIVE, RULE_MULTIPLICATIVE, RULE_DIEHL_COOK = 0, 1, 2
+(R_KIND, R_POT, R_DEP, R_W_MIN, R_W_MAX, R_TAU_PRE, R_TAU_POST, R_MU, R_X_TAR, R_TAU_POST2, N_RULE_COLS) = range(11)
+
+
+# Columns of the per-projection parameter table ``cv_par``.
+(CV_PRE0, CV_C, CV_H, CV_W, CV_O, CV_OH, CV_OW, CV_KH, CV_KW, CV_SH, CV_SW, CV_PH, CV_PW, CV_POST0, CV_DELAY, CV_REC,
+ CV_WOFF) = range(17)  # fmt: skip
+N_CV_COLS = 17
+
+#: Static arrivals are tracked per block of ``1 << BLOCK_SHIFT`` consecutive neurons.
+BLOCK_SHIFT = 6
+
+# Codes of the recordable variables (the kernel's recording step switches on them).
+VAR_V, VAR_EXC, VAR_INH, VAR_THETA, VAR_CA = range(5)
+VAR_CODES = {
+    "v": VAR_V,
+    "isyn_exc": VAR_EXC,
+    "gsyn_exc": VAR_EXC,
+    "isyn_inh": VAR_INH,
+    "gsyn_inh": VAR_INH,
+    "theta": VAR_THETA,
+    "i_ca2": VAR_CA,
+}
 
 NEVER = np.int64(2**62)
 
@@ -655,13 +670,13 @@ def run_steps(
             for r in range(var_idx.size):
                 i = var_idx[r]
                 c = var_code[r]
-                if c == 0:
+                if c == VAR_V:
                     var_out[row, r] = v[i]
-                elif c == 1:
+                elif c == VAR_EXC:
                     var_out[row, r] = ie[i]
-                elif c == 2:
+                elif c == VAR_INH:
                     var_out[row, r] = ii[i]
-                elif c == 3:
+                elif c == VAR_THETA:
                     var_out[row, r] = theta[i]
                 else:
                     var_out[row, r] = ica[i]
