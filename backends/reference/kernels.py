@@ -43,6 +43,8 @@ overflow; the caller grows the buffer and calls again from that step.
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
 
@@ -123,6 +125,17 @@ VAR_CODES = {
 }
 
 NEVER = np.int64(2**62)
+
+# The arrays :func:`emit` works on, bundled by role (numba passes a tuple of arrays as
+# one argument; ``emit`` is inlined, so the bundles cost nothing at run time).
+#: The spike record: which neurons are recorded, the spike steps and neurons, the count.
+SpikeRecord = namedtuple("SpikeRecord", "mask t i n")
+#: Static delivery (:func:`.delivery.static_delivery`): segments per neuron, their synapses and neuron blocks.
+StaticTables = namedtuple("StaticTables", "seg_ptr seg_start seg post w blk_ptr blk")
+#: The ring of arrivals: static sums and their marks, and the plastic events per slot.
+Arrivals = namedtuple("Arrivals", "buf dirty row_any row_range ev ev_n")
+#: Structured convolutions (:mod:`.convolution`): per-neuron entries, parameters, transposed kernels.
+ConvTables = namedtuple("ConvTables", "index par w")
 
 # Indices of the activity counters.
 ST_STEPS, ST_NEURON_UPDATES, ST_SPIKES, ST_SYN_EVENTS, ST_PLASTIC_UPDATES = range(5)
@@ -483,11 +496,7 @@ def convolve(k, at, cv_index, cv_par, cv_w, buf, row_any, row_range, ring, width
 
 
 @njit(cache=True, inline="always", _nrt=False)
-def emit(
-    i, stamp, at, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg,
-    d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay, ev, ev_n, stats, cv_index, cv_par,
-    cv_w, row_range,
-):  # fmt: skip
+def emit(i, stamp, at, width, counts, stats, record, static, arrivals, conv, row_seg_ptr, seg_delay):
     """Record the spike of neuron ``i`` at step ``stamp`` and schedule its arrivals.
 
     Each static segment (one delay and receptor) adds its weights into one row of the
@@ -495,8 +504,13 @@ def emit(
     each) and marks the neuron blocks it touches in ``dirty`` (``row_any`` says that a
     row has marks); each structured convolution the neuron feeds adds through
     :func:`convolve`. ``at`` is ``stamp``'s ring slot (``stamp % ring``), so that the
-    slot of an arrival needs no division.
+    slot of an arrival needs no division. ``record``, ``static``, ``arrivals`` and ``conv``
+    are a :class:`SpikeRecord`, :class:`StaticTables`, :class:`Arrivals` and :class:`ConvTables`.
     """
+    rec_mask, rec_t, rec_i, rec_n = record
+    d_seg_ptr, d_seg_start, d_seg, d_post, d_w, d_blk_ptr, d_blk = static
+    buf, dirty, row_any, row_range, ev, ev_n = arrivals
+    cv_index, cv_par, cv_w = conv
     counts[i] += 1
     stats[ST_SPIKES] += 1
     if rec_mask[i]:
@@ -598,6 +612,10 @@ def run_steps(
     n = v.size
     cap = rec_t.size
     width = buf.size // row_any.size
+    record = SpikeRecord(rec_mask, rec_t, rec_i, rec_n)
+    static = StaticTables(d_seg_ptr, d_seg_start, d_seg, d_post, d_w, d_blk_ptr, d_blk)
+    arrivals = Arrivals(buf, dirty, row_any, row_range, ev, ev_n)
+    conv = ConvTables(cv_index, cv_par, cv_w)
     for j in range(j0, j1):
         if rec_n[0] + headroom > cap:
             return j
@@ -608,9 +626,7 @@ def run_steps(
             if pois_next[k] == j:
                 i = pois_idx[k]
                 if pois_start[k] <= j < pois_end[k]:
-                    emit(i, j, slot, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg, d_post,
-                         d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay, ev, ev_n, stats, cv_index,
-                         cv_par, cv_w, row_range)  # fmt: skip
+                    emit(i, j, slot, width, counts, stats, record, static, arrivals, conv, row_seg_ptr, seg_delay)
                 g = geometric_gap(rng, pois_logq[k])
                 pois_next[k] = NEVER if g == NEVER else j + 1 + g
             elif pois_next[k] < j:  # window change or redraw in the past: draw forward
@@ -618,9 +634,8 @@ def run_steps(
                 pois_next[k] = NEVER if g == NEVER else j + g
         while arr_ptr[0] < arr_step.size and arr_step[arr_ptr[0]] <= j:
             if arr_step[arr_ptr[0]] == j:
-                emit(arr_neuron[arr_ptr[0]], j, slot, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start,
-                     d_seg, d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr,
-                     seg_delay, ev, ev_n, stats, cv_index, cv_par, cv_w, row_range)  # fmt: skip
+                src = arr_neuron[arr_ptr[0]]
+                emit(src, j, slot, width, counts, stats, record, static, arrivals, conv, row_seg_ptr, seg_delay)
             arr_ptr[0] += 1
         # 2. arrivals at plastic synapses (post traces hold their value at time j)
         for e in range(ev_n[slot]):
@@ -660,9 +675,7 @@ def run_steps(
                                     p_w, rules, pre_table, tr_shift, xpost2, x_pre,
                                 )  # fmt: skip
                             post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2)
-                            emit(i, j + 1, after, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg,
-                                 d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay,
-                                 ev, ev_n, stats, cv_index, cv_par, cv_w, row_range)  # fmt: skip
+                            emit(i, j + 1, after, width, counts, stats, record, static, arrivals, conv, row_seg_ptr, seg_delay)
                 word += 1
         # 4. state recording
         if var_idx.size:
