@@ -31,10 +31,26 @@ import numpy as np
 
 from neurovpr.ir.connectors import ConvolutionConnector
 
-# Columns of the per-projection parameter table ``cv_par``.
-(CV_PRE0, CV_C, CV_H, CV_W, CV_O, CV_OH, CV_OW, CV_KH, CV_KW, CV_SH, CV_SW, CV_PH, CV_PW, CV_POST0, CV_DELAY, CV_REC,
- CV_WOFF) = range(17)  # fmt: skip
-N_CV_COLS = 17
+from .kernels import (
+    CV_C,
+    CV_DELAY,
+    CV_H,
+    CV_KH,
+    CV_KW,
+    CV_O,
+    CV_OH,
+    CV_OW,
+    CV_PH,
+    CV_POST0,
+    CV_PRE0,
+    CV_PW,
+    CV_REC,
+    CV_SH,
+    CV_SW,
+    CV_W,
+    CV_WOFF,
+    N_CV_COLS,
+)
 
 
 @dataclass(frozen=True)

@@ -12,11 +12,10 @@ from __future__ import annotations
 import numpy as np
 
 from .convolution import ConvSpec, conv_tables
+from .kernels import BLOCK_SHIFT
 
 __all__ = ["BLOCK_SHIFT", "split_static", "static_delivery"]
 
-#: Static arrivals are tracked per block of ``1 << BLOCK_SHIFT`` consecutive neurons.
-BLOCK_SHIFT = 6
 
 
 def split_static(

@@ -43,71 +43,99 @@ overflow; the caller grows the buffer and calls again from that step.
 
 from __future__ import annotations
 
+from collections import namedtuple
+
 import numpy as np
 from numba import njit
 
-from .convolution import (
-    CV_DELAY,
-    CV_KH,
-    CV_KW,
-    CV_O,
-    CV_OH,
-    CV_OW,
-    CV_POST0,
-    CV_REC,
-    CV_SH,
-    CV_SW,
-    CV_WOFF,
-)
-from .delivery import BLOCK_SHIFT
 from .prefetch import prefetch
-from .translation import (
+
+# The layouts of the arrays the kernels read, defined here (not imported) so that a change
+# to any of them changes this file and so invalidates numba's cache of the kernels;
+# translation.py, convolution.py and delivery.py import them from here.
+
+# Neuron kinds.
+KIND_CURR, KIND_COND, KIND_POISSON, KIND_ARRAY = 0, 1, 2, 3
+
+# Columns of the neuron parameter table.
+(
+    C_V_REST,
+    C_V_RESET,
+    C_V_THRESH,
+    C_I_OFFSET,
+    C_P22,  # exp(-dt/tau_m)
+    C_P20,  # (tau_m/cm)(1 - P22): i_offset -> v
+    C_P11E,  # exp(-dt/tau_syn_E)
+    C_P11I,
+    C_P21E,  # I_E(t) -> v over one step (current-based)
+    C_P21I,
+    C_FE,  # mean of a decaying conductance over one step, relative to its start value
+    C_FI,
+    C_GL,  # leak conductance cm/tau_m
     C_CM,
     C_E_REV_E,
     C_E_REV_I,
-    C_FE,
-    C_FI,
-    C_GL,
-    C_I_ALPHA,
-    C_I_OFFSET,
-    C_LOCK,
-    C_P11CA,
-    C_P11E,
-    C_P11I,
-    C_P20,
-    C_P21CA,
-    C_P21E,
-    C_P21I,
-    C_P22,
-    C_REFRAC,
-    C_THETA_DECAY,
     C_THETA_PLUS,
-    C_V_RESET,
-    C_V_REST,
-    C_V_THRESH,
-    F_ADAPTIVE,
-    F_CA,
-    F_INH,
-    G_FLAGS,
-    G_HI,
-    G_KIND,
-    G_LO,
-    KIND_CURR,
-    R_DEP,
-    R_KIND,
-    R_MU,
-    R_POT,
-    R_TAU_POST2,
-    R_TAU_PRE,
-    R_W_MAX,
-    R_W_MIN,
-    R_X_TAR,
-    RULE_ADDITIVE,
-    RULE_DIEHL_COOK,
-    RULE_MULTIPLICATIVE,
-)
+    C_THETA_DECAY,  # exp(-dt/tau_theta)
+    C_P11CA,  # exp(-dt/tau_ca2)
+    C_P21CA,  # I_ca2 -> v
+    C_I_ALPHA,
+    C_REFRAC,  # refractory steps (membrane held at v_reset)
+    C_LOCK,  # steps after the refractory ones in which the membrane integrates but may not fire (tau_lockout)
+    C_V_INIT,
+    C_I_CA_INIT,
+    N_COLS,
+) = range(26)
+
+# Columns that hold initial values, not parameters of the dynamics.
+INIT_COLS = (C_V_INIT, C_I_CA_INIT)
+
+# Columns of the group table, and the group flags.
+G_LO, G_HI, G_KIND, G_FLAGS, N_GROUP_COLS = range(5)
+#: The group receives inhibitory synapses (otherwise its inhibitory current stays 0).
+F_INH = 1
+#: The group has the Ca2+ adaptation current (otherwise it stays 0).
+F_CA = 2
+#: The group has an adaptive threshold.
+F_ADAPTIVE = 4
+
+# Rule kinds and columns of the plasticity rule table.
+RULE_ADDITIVE, RULE_MULTIPLICATIVE, RULE_DIEHL_COOK = 0, 1, 2
+(R_KIND, R_POT, R_DEP, R_W_MIN, R_W_MAX, R_TAU_PRE, R_TAU_POST, R_MU, R_X_TAR, R_TAU_POST2, N_RULE_COLS) = range(11)
+
+
+# Columns of the per-projection parameter table ``cv_par``.
+(CV_PRE0, CV_C, CV_H, CV_W, CV_O, CV_OH, CV_OW, CV_KH, CV_KW, CV_SH, CV_SW, CV_PH, CV_PW, CV_POST0, CV_DELAY, CV_REC,
+ CV_WOFF) = range(17)  # fmt: skip
+N_CV_COLS = 17
+
+#: Static arrivals are tracked per block of ``1 << BLOCK_SHIFT`` consecutive neurons.
+BLOCK_SHIFT = 6
+
+# Codes of the recordable variables (the kernel's recording step switches on them).
+VAR_V, VAR_EXC, VAR_INH, VAR_THETA, VAR_CA = range(5)
+VAR_CODES = {
+    "v": VAR_V,
+    "isyn_exc": VAR_EXC,
+    "gsyn_exc": VAR_EXC,
+    "isyn_inh": VAR_INH,
+    "gsyn_inh": VAR_INH,
+    "theta": VAR_THETA,
+    "i_ca2": VAR_CA,
+}
 
 NEVER = np.int64(2**62)
+
+# The arrays :func:`emit` works on, bundled by role (numba passes a tuple of arrays as
+# one argument; ``emit`` is inlined, so the bundles cost nothing at run time).
+#: The spike record: which neurons are recorded, the spike steps and neurons, the count.
+SpikeRecord = namedtuple("SpikeRecord", "mask t i n")
+#: Static delivery (:func:`.delivery.static_delivery`): segments per neuron, their synapses and neuron blocks.
+StaticTables = namedtuple("StaticTables", "seg_ptr seg_start seg post w blk_ptr blk")
+#: The ring of arrivals: static sums and their marks, and the plastic events per slot.
+Arrivals = namedtuple("Arrivals", "buf dirty row_any row_range ev ev_n")
+#: Structured convolutions (:mod:`.convolution`): per-neuron entries, parameters, transposed kernels.
+ConvTables = namedtuple("ConvTables", "index par w")
 
 # Indices of the activity counters.
 ST_STEPS, ST_NEURON_UPDATES, ST_SPIKES, ST_SYN_EVENTS, ST_PLASTIC_UPDATES = range(5)
@@ -468,11 +496,7 @@ def convolve(k, at, cv_index, cv_par, cv_w, buf, row_any, row_range, ring, width
 
 
 @njit(cache=True, inline="always", _nrt=False)
-def emit(
-    i, stamp, at, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg,
-    d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay, ev, ev_n, stats, cv_index, cv_par,
-    cv_w, row_range,
-):  # fmt: skip
+def emit(i, stamp, at, width, counts, stats, record, static, arrivals, conv, row_seg_ptr, seg_delay):
     """Record the spike of neuron ``i`` at step ``stamp`` and schedule its arrivals.
 
     Each static segment (one delay and receptor) adds its weights into one row of the
@@ -480,8 +504,13 @@ def emit(
     each) and marks the neuron blocks it touches in ``dirty`` (``row_any`` says that a
     row has marks); each structured convolution the neuron feeds adds through
     :func:`convolve`. ``at`` is ``stamp``'s ring slot (``stamp % ring``), so that the
-    slot of an arrival needs no division.
+    slot of an arrival needs no division. ``record``, ``static``, ``arrivals`` and ``conv``
+    are a :class:`SpikeRecord`, :class:`StaticTables`, :class:`Arrivals` and :class:`ConvTables`.
     """
+    rec_mask, rec_t, rec_i, rec_n = record
+    d_seg_ptr, d_seg_start, d_seg, d_post, d_w, d_blk_ptr, d_blk = static
+    buf, dirty, row_any, row_range, ev, ev_n = arrivals
+    cv_index, cv_par, cv_w = conv
     counts[i] += 1
     stats[ST_SPIKES] += 1
     if rec_mask[i]:
@@ -583,6 +612,10 @@ def run_steps(
     n = v.size
     cap = rec_t.size
     width = buf.size // row_any.size
+    record = SpikeRecord(rec_mask, rec_t, rec_i, rec_n)
+    static = StaticTables(d_seg_ptr, d_seg_start, d_seg, d_post, d_w, d_blk_ptr, d_blk)
+    arrivals = Arrivals(buf, dirty, row_any, row_range, ev, ev_n)
+    conv = ConvTables(cv_index, cv_par, cv_w)
     for j in range(j0, j1):
         if rec_n[0] + headroom > cap:
             return j
@@ -593,9 +626,7 @@ def run_steps(
             if pois_next[k] == j:
                 i = pois_idx[k]
                 if pois_start[k] <= j < pois_end[k]:
-                    emit(i, j, slot, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg, d_post,
-                         d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay, ev, ev_n, stats, cv_index,
-                         cv_par, cv_w, row_range)  # fmt: skip
+                    emit(i, j, slot, width, counts, stats, record, static, arrivals, conv, row_seg_ptr, seg_delay)
                 g = geometric_gap(rng, pois_logq[k])
                 pois_next[k] = NEVER if g == NEVER else j + 1 + g
             elif pois_next[k] < j:  # window change or redraw in the past: draw forward
@@ -603,9 +634,8 @@ def run_steps(
                 pois_next[k] = NEVER if g == NEVER else j + g
         while arr_ptr[0] < arr_step.size and arr_step[arr_ptr[0]] <= j:
             if arr_step[arr_ptr[0]] == j:
-                emit(arr_neuron[arr_ptr[0]], j, slot, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start,
-                     d_seg, d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr,
-                     seg_delay, ev, ev_n, stats, cv_index, cv_par, cv_w, row_range)  # fmt: skip
+                src = arr_neuron[arr_ptr[0]]
+                emit(src, j, slot, width, counts, stats, record, static, arrivals, conv, row_seg_ptr, seg_delay)
             arr_ptr[0] += 1
         # 2. arrivals at plastic synapses (post traces hold their value at time j)
         for e in range(ev_n[slot]):
@@ -645,9 +675,7 @@ def run_steps(
                                     p_w, rules, pre_table, tr_shift, xpost2, x_pre,
                                 )  # fmt: skip
                             post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2)
-                            emit(i, j + 1, after, width, counts, rec_mask, rec_t, rec_i, rec_n, d_seg_ptr, d_seg_start, d_seg,
-                                 d_post, d_w, d_blk_ptr, d_blk, buf, dirty, row_any, row_seg_ptr, seg_delay,
-                                 ev, ev_n, stats, cv_index, cv_par, cv_w, row_range)  # fmt: skip
+                            emit(i, j + 1, after, width, counts, stats, record, static, arrivals, conv, row_seg_ptr, seg_delay)
                 word += 1
         # 4. state recording
         if var_idx.size:
@@ -655,13 +683,13 @@ def run_steps(
             for r in range(var_idx.size):
                 i = var_idx[r]
                 c = var_code[r]
-                if c == 0:
+                if c == VAR_V:
                     var_out[row, r] = v[i]
-                elif c == 1:
+                elif c == VAR_EXC:
                     var_out[row, r] = ie[i]
-                elif c == 2:
+                elif c == VAR_INH:
                     var_out[row, r] = ii[i]
-                elif c == 3:
+                elif c == VAR_THETA:
                     var_out[row, r] = theta[i]
                 else:
                     var_out[row, r] = ica[i]

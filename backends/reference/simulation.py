@@ -20,9 +20,9 @@ if TYPE_CHECKING:
     from neurovpr.hardware.check import HardwareTarget
 
 from . import kernels
-from .convolution import CV_WOFF
-from .delivery import BLOCK_SHIFT, split_static
-from .translation import C_I_CA_INIT, C_V_INIT, KIND_POISSON, VAR_CODES, build_layout
+from .delivery import split_static
+from .kernels import BLOCK_SHIFT, C_I_CA_INIT, C_V_INIT, CV_WOFF, KIND_POISSON, VAR_CODES
+from .translation import build_layout
 
 _PAST = -(2**40)
 

@@ -35,55 +35,61 @@ from neurovpr.ir.synapses import DiehlCookSTDP, MultiplicativeWeightDependence, 
 
 from .convolution import ConvSpec, conv_spec, merge
 from .delivery import split_static
-
-# Neuron kinds.
-KIND_CURR, KIND_COND, KIND_POISSON, KIND_ARRAY = 0, 1, 2, 3
-
-# Columns of the neuron parameter table.
-(
-    C_V_REST,
-    C_V_RESET,
-    C_V_THRESH,
-    C_I_OFFSET,
-    C_P22,  # exp(-dt/tau_m)
-    C_P20,  # (tau_m/cm)(1 - P22): i_offset -> v
-    C_P11E,  # exp(-dt/tau_syn_E)
-    C_P11I,
-    C_P21E,  # I_E(t) -> v over one step (current-based)
-    C_P21I,
-    C_FE,  # mean of a decaying conductance over one step, relative to its start value
-    C_FI,
-    C_GL,  # leak conductance cm/tau_m
+from .kernels import (
     C_CM,
     C_E_REV_E,
     C_E_REV_I,
-    C_THETA_PLUS,
-    C_THETA_DECAY,  # exp(-dt/tau_theta)
-    C_P11CA,  # exp(-dt/tau_ca2)
-    C_P21CA,  # I_ca2 -> v
+    C_FE,
+    C_FI,
+    C_GL,
     C_I_ALPHA,
-    C_REFRAC,  # refractory steps (membrane held at v_reset)
-    C_LOCK,  # steps after the refractory ones in which the membrane integrates but may not fire (tau_lockout)
-    C_V_INIT,
     C_I_CA_INIT,
+    C_I_OFFSET,
+    C_LOCK,
+    C_P11CA,
+    C_P11E,
+    C_P11I,
+    C_P20,
+    C_P21CA,
+    C_P21E,
+    C_P21I,
+    C_P22,
+    C_REFRAC,
+    C_THETA_DECAY,
+    C_THETA_PLUS,
+    C_V_INIT,
+    C_V_RESET,
+    C_V_REST,
+    C_V_THRESH,
+    F_ADAPTIVE,
+    F_CA,
+    F_INH,
+    G_FLAGS,
+    G_HI,
+    G_KIND,
+    G_LO,
+    INIT_COLS,
+    KIND_ARRAY,
+    KIND_COND,
+    KIND_CURR,
+    KIND_POISSON,
     N_COLS,
-) = range(26)
-
-# Columns that hold initial values, not parameters of the dynamics.
-INIT_COLS = (C_V_INIT, C_I_CA_INIT)
-
-# Columns of the group table, and the group flags.
-G_LO, G_HI, G_KIND, G_FLAGS, N_GROUP_COLS = range(5)
-#: The group receives inhibitory synapses (otherwise its inhibitory current stays 0).
-F_INH = 1
-#: The group has the Ca2+ adaptation current (otherwise it stays 0).
-F_CA = 2
-#: The group has an adaptive threshold.
-F_ADAPTIVE = 4
-
-# Rule kinds and columns of the plasticity rule table.
-RULE_ADDITIVE, RULE_MULTIPLICATIVE, RULE_DIEHL_COOK = 0, 1, 2
-(R_KIND, R_POT, R_DEP, R_W_MIN, R_W_MAX, R_TAU_PRE, R_TAU_POST, R_MU, R_X_TAR, R_TAU_POST2, N_RULE_COLS) = range(11)
+    N_GROUP_COLS,
+    N_RULE_COLS,
+    R_DEP,
+    R_KIND,
+    R_MU,
+    R_POT,
+    R_TAU_POST,
+    R_TAU_POST2,
+    R_TAU_PRE,
+    R_W_MAX,
+    R_W_MIN,
+    R_X_TAR,
+    RULE_ADDITIVE,
+    RULE_DIEHL_COOK,
+    RULE_MULTIPLICATIVE,
+)
 
 # Number of whole-step delays for which the presynaptic trace decay is tabulated with numpy;
 # the table then goes on (computed as the kernels compute it) until the decay is exactly 0,
@@ -91,9 +97,6 @@ RULE_ADDITIVE, RULE_MULTIPLICATIVE, RULE_DIEHL_COOK = 0, 1, 2
 PRE_TABLE = 4096
 PRE_ZERO = 760.0
 MAX_PRE_TABLE = 1 << 17
-
-# Recordable variable codes.
-VAR_CODES = {"v": 0, "isyn_exc": 1, "gsyn_exc": 1, "isyn_inh": 2, "gsyn_inh": 2, "theta": 3, "i_ca2": 4}
 
 
 def _psc_propagator(dt: float, tau_s: np.ndarray, tau_m: np.ndarray, cm: np.ndarray) -> np.ndarray:
