@@ -44,18 +44,16 @@ import numpy as np
 
 SLOW_BACKENDS = ("nengo", "nengo-loihi", "lava", "lava-fixed")
 ON_CHIP = {"nengo-loihi", "lava-fixed"}
-VARIANTS = {
-    "plain": ["--weight-decay", "0"],
-    "hw-aware": ["--weight-decay", "1e-4", "--quantise", "kapoho-bay"],
+VARIANTS: dict[str, dict[str, Any]] = {
+    "plain": {"weight_decay": 0.0},
+    "hw-aware": {"weight_decay": 1e-4, "quantise": "kapoho-bay"},
 }
 
 
-def _train(data: Path, out: Path, epochs: int, extra: list[str], resume: bool) -> dict[str, Any]:
-    from neurovpr.cli.train_cmd import parse_train_arguments
+def _train(data: Path, out: Path, epochs: int, options: dict[str, Any], resume: bool) -> dict[str, Any]:
+    from neurovpr import models
 
-    argv = ["--model", "locsnet", "--data", str(data), "--out", str(out), "--epochs", str(epochs), *extra]
-    model, args = parse_train_arguments("locsnet", argv + (["--resume"] if resume else []))
-    return model.train(args)
+    return models.get("locsnet").train(data=data, out=out, epochs=epochs, resume=resume, **options)
 
 
 def _inputs(run_dir: Path, data: Path) -> tuple[Any, np.ndarray, np.ndarray, np.ndarray]:
@@ -225,7 +223,7 @@ def main(argv: list[str] | None = None) -> int:
         results = json.loads((args.out / "results.json").read_text(encoding="utf-8"))
     for variant in args.variants.split(","):
         run_dir = args.out / variant
-        print(f"== {variant}: training ({' '.join(VARIANTS[variant])})", flush=True)
+        print(f"== {variant}: training ({VARIANTS[variant]})", flush=True)
         summary = _train(data, run_dir, args.epochs, VARIANTS[variant], args.resume)
         print(f"   {summary}", flush=True)
         results[variant] = evaluate_variant(run_dir, data, args.slow_queries, args.timeout, backends,

@@ -14,15 +14,17 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import time
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
 from neurovpr.apps.modelapi import ModelPlugin
+from neurovpr.apps.requests import EvalRequest, TrainRequest, check_fields
 from neurovpr.errors import ValidationError
 
-__all__ = ["LoCSNetPlugin", "MODEL"]
+__all__ = ["LoCSNetPlugin", "LoCSNetTrainOptions", "LoCSNetEvalOptions", "MODEL"]
 
 _PRESETS = ("paper", "small")
 
@@ -34,11 +36,60 @@ def _positive_int(text: str) -> int:
     return value
 
 
+@dataclass(frozen=True, slots=True, kw_only=True)
+class LoCSNetTrainOptions:
+    """LoCS-Net's own ``train`` options (``neurovpr train --model locsnet --help`` says what each does)."""
+
+    preset: Literal["paper", "small"] = "paper"
+    frames_per_place: int = 1
+    positions: Path | None = None
+    tile_size: float = 25.0
+    min_tile_images: int = 2
+    epochs: int = 40
+    batch_size: int = 64
+    learning_rate: float = 5e-3
+    weight_decay: float = 1e-5
+    rate_penalty: float = 0.0
+    quantise: str | None = None
+    place_loss: Literal["current", "rate"] = "current"
+    checkpoint: Path | None = None
+    no_patch_norm: bool = False
+    conv_bias: bool = False
+    threads: int = 1
+    presentation: float = 50.0
+    input_coding: Literal["poisson", "regular"] = "poisson"
+    input_rate: float = 250.0
+    tau_syn: float = 1.0
+    dt: float = 1.0
+    feature_groups: int | None = None
+    calibration_images: int = 100
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+        if self.min_tile_images < 1:
+            raise ValidationError(f"--min-tile-images is {self.min_tile_images}; it must be >= 1.")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class LoCSNetEvalOptions:
+    """LoCS-Net's own ``eval`` options."""
+
+    queries: int | None = None
+    hardware: str | None = None
+    eval_positions: Path | None = None
+    no_plots: bool = False
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+
+
 class LoCSNetPlugin(ModelPlugin):
     """LoCS-Net (Akcal et al., Frontiers in Neurorobotics 2025)."""
 
     name = "locsnet"
     description = "LoCS-Net: convolutional spiking place classifier trained through SoftLIF (torch)"
+    train_options = LoCSNetTrainOptions
+    eval_options = LoCSNetEvalOptions
 
     # -- arguments ------------------------------------------------------------------------
     def add_train_arguments(self, parser: argparse.ArgumentParser) -> None:
@@ -83,35 +134,36 @@ class LoCSNetPlugin(ModelPlugin):
           help="conv3 as this many populations, for Loihi's output-axon limit (default: 8 for paper, 1 for small)")
 
     # -- train ----------------------------------------------------------------------------
-    def train(self, args: argparse.Namespace) -> dict[str, Any]:
-        """Train into ``args.out``; see the module docstring."""
+    def run_train(self, request: TrainRequest) -> dict[str, Any]:
+        """Train into ``request.out``; see the module docstring."""
+        o: LoCSNetTrainOptions = request.options
         from .architecture import paper_architecture, small_architecture
         from .conversion import SpikingParameters, layer_populations, to_spiking_network
         from .estimate import check_resources
         from .runs import write_run
 
         t_start = time.perf_counter()
-        out = Path(args.out)
+        out = Path(request.out)
         if (out / "run.json").is_file():
-            if getattr(args, "resume", False):
+            if request.resume:
                 from .runs import load_run
 
                 run = load_run(out)
                 return {"model": "locsnet", "run": str(out), "resumed": True, "n_places": run.arch.n_places}
             raise ValidationError(f"run directory {out} already holds a finished run; use --resume or another --out.")
-        if getattr(args, "scheduler", None):
+        if request.scheduler:
             raise ValidationError("LoCS-Net trains one network in one process; --scheduler is not supported for it.")
-        settings = self._settings(args)
-        groups = args.feature_groups if args.feature_groups is not None else (8 if args.preset == "paper" else 1)
-        spiking = SpikingParameters(dt=args.dt, tau_syn=args.tau_syn, input_rate=args.input_rate,
-                                    presentation=args.presentation, input_coding=args.input_coding,
+        settings = self._settings(o, request.seed)
+        groups = o.feature_groups if o.feature_groups is not None else (8 if o.preset == "paper" else 1)
+        spiking = SpikingParameters(dt=o.dt, tau_syn=o.tau_syn, input_rate=o.input_rate,
+                                    presentation=o.presentation, input_coding=o.input_coding,
                                     feature_groups=groups)
-        make_arch = paper_architecture if args.preset == "paper" else small_architecture
+        make_arch = paper_architecture if o.preset == "paper" else small_architecture
         check_resources(make_arch(2), batch_size=settings.batch_size, spiking=spiking,
-                        calibration_images=args.calibration_images)  # before the data is read: 2 places at least
-        traverse, labels, positions_used = self._labels(args)
+                        calibration_images=o.calibration_images)  # before the data is read: 2 places at least
+        traverse, labels, positions_used = self._labels(o, request.data)
         arch = make_arch(labels.n_places)
-        if args.conv_bias:
+        if o.conv_bias:
             arch = dataclasses.replace(arch, conv_bias=True)
         size = arch.input_size
         layer_populations(arch, spiking)  # a bad grouping fails before training
@@ -121,12 +173,12 @@ class LoCSNetPlugin(ModelPlugin):
 
             weight_format = hw_format(settings.quantise)
         initial = None
-        if args.checkpoint is not None:
+        if o.checkpoint is not None:
             from .runs import load_checkpoint
 
-            initial = load_checkpoint(args.checkpoint, arch, settings.place_loss)
+            initial = load_checkpoint(o.checkpoint, arch, settings.place_loss)
         t0 = time.perf_counter()
-        images, image_labels = _training_images(traverse, labels, size, not args.no_patch_norm)
+        images, image_labels = _training_images(traverse, labels, size, not o.no_patch_norm)
         t_pre = time.perf_counter() - t0
         from .training import train
 
@@ -134,13 +186,13 @@ class LoCSNetPlugin(ModelPlugin):
                        initial_state=initial)
         params, calibration = result.parameters, {"rate": result.calibration}
         t0 = time.perf_counter()
-        if settings.place_loss == "current" and args.calibration_images > 0:
+        if settings.place_loss == "current" and o.calibration_images > 0:
             from .calibration import calibrate_spiking
 
-            pick = np.linspace(0, images.shape[0] - 1, min(args.calibration_images, images.shape[0])).astype(int)
+            pick = np.linspace(0, images.shape[0] - 1, min(o.calibration_images, images.shape[0])).astype(int)
             params, calibration["spiking"] = calibrate_spiking(
                 arch, params, spiking, images[pick], drive=settings.place_drive, active=settings.active_places,
-                seed=args.seed, progress=True)
+                seed=request.seed, progress=True)
         if weight_format is not None:  # the calibration moved the place weights off the chip's grid
             from .quantise import quantise_parameters
 
@@ -148,15 +200,15 @@ class LoCSNetPlugin(ModelPlugin):
         t_cal = time.perf_counter() - t0
         network = to_spiking_network(arch, params, spiking, name="locsnet")
         info = {
-            "backend": args.backend,
-            "seed": args.seed,
-            "data": str(Path(args.data).resolve()),
+            "backend": request.backend,
+            "seed": request.seed,
+            "data": str(Path(request.data).resolve()),
             "positions": str(positions_used) if positions_used else None,
             "n_places": arch.n_places,
             "n_training_images": int(images.shape[0]),
             "places": {"scheme": labels.scheme, "frames_per_place": labels.frames_per_place,
                        "tile_size": labels.tile_size},
-            "preprocess": {"size": list(size), "patch_norm": not args.no_patch_norm},
+            "preprocess": {"size": list(size), "patch_norm": not o.no_patch_norm},
             "architecture": arch.to_dict(),
             "spiking": spiking.to_dict(),
             "training": settings.to_dict(),
@@ -174,28 +226,29 @@ class LoCSNetPlugin(ModelPlugin):
                 "total_seconds": round(time.perf_counter() - t_start, 2)}
 
     @staticmethod
-    def _settings(args: argparse.Namespace) -> Any:
+    def _settings(o: LoCSNetTrainOptions, seed: int) -> Any:
         from .training import TrainingSettings
 
-        return TrainingSettings(epochs=args.epochs, batch_size=args.batch_size, learning_rate=args.learning_rate,
-                                weight_decay=args.weight_decay, rate_penalty=args.rate_penalty, quantise=args.quantise,
-                                place_loss=args.place_loss, seed=args.seed, threads=args.threads)
+        return TrainingSettings(epochs=o.epochs, batch_size=o.batch_size, learning_rate=o.learning_rate,
+                                weight_decay=o.weight_decay, rate_penalty=o.rate_penalty, quantise=o.quantise,
+                                place_loss=o.place_loss, seed=seed, threads=o.threads)
 
     @staticmethod
-    def _labels(args: argparse.Namespace) -> tuple[Any, Any, Path | None]:
+    def _labels(o: LoCSNetTrainOptions, data: Path) -> tuple[Any, Any, Path | None]:
         from neurovpr.data import open_traverse
 
         from .places import frame_labels, grid_labels, read_positions_csv
 
-        traverse = open_traverse(args.data)
-        if args.positions is not None:
-            ref_xy, _ = read_positions_csv(args.positions, traverse.n_reference, traverse.n_query)
-            return traverse, grid_labels(ref_xy, args.tile_size, args.min_tile_images), Path(args.positions).resolve()
-        return traverse, frame_labels(traverse.n_reference, args.frames_per_place), None
+        traverse = open_traverse(data)
+        if o.positions is not None:
+            ref_xy, _ = read_positions_csv(o.positions, traverse.n_reference, traverse.n_query)
+            return traverse, grid_labels(ref_xy, o.tile_size, o.min_tile_images), Path(o.positions).resolve()
+        return traverse, frame_labels(traverse.n_reference, o.frames_per_place), None
 
     # -- eval -----------------------------------------------------------------------------
-    def evaluate(self, args: argparse.Namespace, run_info: dict[str, Any]) -> dict[str, Any]:
-        """Evaluate the run in ``args.run``; returns the JSON object ``eval --json`` prints."""
+    def run_evaluate(self, request: EvalRequest, run_info: dict[str, Any]) -> dict[str, Any]:
+        """Evaluate the run in ``request.run``; returns the JSON object ``eval --json`` prints."""
+        o: LoCSNetEvalOptions = request.options
         from neurovpr.data import open_traverse
 
         from .inference import SpikingClassifier, rate_forward
@@ -204,9 +257,9 @@ class LoCSNetPlugin(ModelPlugin):
         from .report import sad_place_distances, score, similarity_distances, write_activity, write_plots
         from .runs import load_run
 
-        run = load_run(args.run)
-        backend = args.backend or run.info.get("backend", "reference")
-        data = Path(args.data) if args.data is not None else Path(run.info["data"])
+        run = load_run(request.run)
+        backend = request.backend or run.info.get("backend", "reference")
+        data = Path(request.data) if request.data is not None else Path(run.info["data"])
         traverse = open_traverse(data)
         if traverse.n_reference != run.labels.labels.size:
             raise ValidationError(
@@ -216,7 +269,7 @@ class LoCSNetPlugin(ModelPlugin):
         pre = run.info.get("preprocess", {})
         size = tuple(pre.get("size", run.arch.input_size))
         patch_norm = bool(pre.get("patch_norm", True))
-        positions = args.eval_positions or (Path(run.info["positions"]) if run.info.get("positions") else None)
+        positions = o.eval_positions or (Path(run.info["positions"]) if run.info.get("positions") else None)
         query_xy = None
         if run.labels.scheme == "grid":
             if positions is None:
@@ -228,15 +281,15 @@ class LoCSNetPlugin(ModelPlugin):
         else:
             gt = place_ground_truth(traverse.ground_truth, run.labels)
         q_idx = np.arange(traverse.n_query)
-        if args.queries is not None and args.queries < traverse.n_query:
-            q_idx = np.unique(np.linspace(0, traverse.n_query - 1, args.queries).astype(int))
+        if o.queries is not None and o.queries < traverse.n_query:
+            q_idx = np.unique(np.linspace(0, traverse.n_query - 1, o.queries).astype(int))
         queries = preprocess(traverse.query.subset(q_idx).images(progress=True), size, patch_norm=patch_norm)
         gt = gt[:, q_idx]
         results: dict[str, Any] = {}
         curves, recalls = {}, {}
         # spiking network on the backend
         clf = SpikingClassifier(run.network, run.arch, run.spiking, backend=backend, seed=int(run.info.get("seed", 0)),
-                                hardware=args.hardware)
+                                hardware=o.hardware)
         spikes = clf.run(queries, progress=True)
         metrics, curves["LoCS-Net spiking"], recalls["LoCS-Net spiking"] = score(similarity_distances(spikes.counts), gt)
         # rate model and SAD on the same inputs
@@ -260,9 +313,9 @@ class LoCSNetPlugin(ModelPlugin):
             predicted = np.argmax(spikes.counts, axis=0)
             results["distance"] = distance_confusion(run.labels, predicted, query_xy[q_idx])
         if spikes.totals is not None:
-            results["activity"] = write_activity(args.run, spikes, run.spiking.dt)
-        if not args.no_plots:
-            folder = Path(args.run) / "eval" / backend
+            results["activity"] = write_activity(request.run, spikes, run.spiking.dt)
+        if not o.no_plots:
+            folder = Path(request.run) / "eval" / backend
             results["plots"] = write_plots(folder, curves, recalls,
                                            title=f"{run.arch.n_places} places, {backend}")
         return results

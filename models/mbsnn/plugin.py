@@ -1,4 +1,4 @@
-"""``neurovpr train/eval --model mbsnn``: the mushroom body's command-line integration.
+"""``neurovpr train/eval --model mbsnn``: the mushroom body's model API and command-line options.
 
 ``train --data RECORDING --learn START:END`` learns that segment (fractions of the
 recording's moving part) of one recording; ``eval --run DIR --data RECORDING`` scores
@@ -11,14 +11,16 @@ from __future__ import annotations
 
 import argparse
 import sys
+from dataclasses import dataclass
 from typing import Any
 
 from neurovpr.apps.modelapi import ModelPlugin
+from neurovpr.apps.requests import EvalRequest, TrainRequest, check_fields
 from neurovpr.errors import ValidationError
 
 from .network import MBSNNParameters
 
-__all__ = ["MBSNNPlugin", "MODEL"]
+__all__ = ["MBSNNPlugin", "MBSNNTrainOptions", "MBSNNEvalOptions", "MODEL"]
 
 
 def _positive_int(text: str) -> int:
@@ -39,14 +41,54 @@ def _add(parser: argparse._ActionsContainer, *flags: str, **kwargs: Any) -> None
         pass
 
 
+_DEFAULTS = MBSNNParameters()
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class MBSNNTrainOptions:
+    """The mushroom body's own ``train`` options (see :class:`MBSNNPlugin`'s ``--help``)."""
+
+    learn: str = "0.4:0.6"
+    n_kc: int = _DEFAULTS.n_kc
+    kc_groups: int = _DEFAULTS.kc_groups
+    timestep: float = _DEFAULTS.dt
+    n_pn: int | None = None
+    keep_still: bool = False
+    stretch: float = 1.0
+
+    def __post_init__(self) -> None:
+        from .training import parse_segment
+
+        check_fields(self)
+        parse_segment(self.learn)
+        for name in ("n_kc", "kc_groups") + (("n_pn",) if self.n_pn is not None else ()):
+            if getattr(self, name) < 1:
+                raise ValidationError(f"MBSNNTrainOptions.{name} is {getattr(self, name)}; it must be >= 1.")
+        if not 0 < self.timestep <= 1.0:
+            raise ValidationError(f"--timestep must be in (0, 1] ms, got {self.timestep!r}.")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class MBSNNEvalOptions:
+    """The mushroom body's own ``eval`` options."""
+
+    windows: int = 100
+    stretch: float = 1.0
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+
+
 class MBSNNPlugin(ModelPlugin):
     """Train and evaluate the mushroom-body SNN from the command line."""
 
     name = "mbsnn"
     description = "Mushroom-body SNN (Zhu, Mangan & Webb 2023): route familiarity from event-camera spikes"
+    train_options = MBSNNTrainOptions
+    eval_options = MBSNNEvalOptions
 
     def add_train_arguments(self, parser: argparse.ArgumentParser) -> None:
-        defaults = MBSNNParameters()
+        defaults = _DEFAULTS
         _add(parser, "--learn", metavar="START:END",
              help="mbsnn: the learned route segment as fractions of the recording (default 0.4:0.6)")
         _add(parser, "--n-kc", type=_positive_int, metavar="N",
@@ -68,37 +110,26 @@ class MBSNNPlugin(ModelPlugin):
         _add(parser, "--stretch", type=float, metavar="F",
              help="mbsnn: stretch the test recording's time axis by F (a speed change; default 1)")
 
-    def train(self, args: argparse.Namespace) -> dict[str, Any]:
+    def run_train(self, request: TrainRequest) -> dict[str, Any]:
         from .training import parse_segment, train
 
-        if getattr(args, "scheduler", None):
+        o: MBSNNTrainOptions = request.options
+        if request.scheduler:
             print("neurovpr train: mbsnn trains one network in this process; --scheduler is not used.", file=sys.stderr)
-        learn = parse_segment(getattr(args, "learn", "0.4:0.6"))
-        timestep = float(getattr(args, "timestep", MBSNNParameters().dt))
-        if not 0 < timestep <= 1.0:
-            raise ValidationError(f"--timestep must be in (0, 1] ms, got {timestep!r}.")
-        defaults = MBSNNParameters()
-        params = MBSNNParameters(
-            n_kc=getattr(args, "n_kc", defaults.n_kc), kc_groups=getattr(args, "kc_groups", defaults.kc_groups), dt=timestep
-        )
+        params = MBSNNParameters(n_kc=o.n_kc, kc_groups=o.kc_groups, dt=o.timestep)
         return train(
-            args.data, args.out, learn=learn, params=params, backend=args.backend, seed=args.seed,
-            trim=not getattr(args, "keep_still", False), stretch=float(getattr(args, "stretch", 1.0)),
-            n_pn=getattr(args, "n_pn", None), resume=bool(getattr(args, "resume", False)),
-            progress=not getattr(args, "json", False) or sys.stderr.isatty(),
+            request.data, request.out, learn=parse_segment(o.learn), params=params, backend=request.backend,
+            seed=request.seed, trim=not o.keep_still, stretch=o.stretch, n_pn=o.n_pn, resume=request.resume,
+            progress=request.progress,
         )  # fmt: skip
 
-    def evaluate(self, args: argparse.Namespace, run_info: dict[str, Any]) -> dict[str, Any]:
+    def run_evaluate(self, request: EvalRequest, run_info: dict[str, Any]) -> dict[str, Any]:
         from .evaluation import evaluate
 
-        seq_len = int(getattr(args, "seq_len", 1) or 1)
-        if seq_len < 1:
-            raise ValidationError(f"--seq-len must be >= 1, got {seq_len}.")
+        o: MBSNNEvalOptions = request.options
         return evaluate(
-            args.run, run_info, data=args.data, backend=args.backend,
-            windows=getattr(args, "windows", 100), stretch=float(getattr(args, "stretch", 1.0)),
-            seq_len=seq_len if seq_len > 1 else 10,
-            progress=not getattr(args, "json", False) or sys.stderr.isatty(),
+            request.run, run_info, data=request.data, backend=request.backend, windows=o.windows, stretch=o.stretch,
+            seq_len=request.seq_len if request.seq_len > 1 else 10, progress=request.progress,
         )  # fmt: skip
 
 

@@ -22,13 +22,15 @@ import argparse
 import io
 import json
 import sys
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 
 import neurovpr as nv
 from neurovpr.apps.modelapi import ModelPlugin, read_run_info
+from neurovpr.apps.requests import EvalRequest, TrainRequest, check_fields
 from neurovpr.data.encoding import RateCoding
 from neurovpr.fileio import atomic_write_text
 from neurovpr.resources import check_network
@@ -50,29 +52,46 @@ from .runs import (
 )
 from .training import TrainingSettings
 
-__all__ = ["ModularSNNPlugin", "load_traverse"]
+__all__ = ["ModularSNNPlugin", "ModularTrainOptions", "ModularEvalOptions", "load_traverse"]
 
-_TRAIN_DEFAULTS: dict[str, Any] = {
-    "members": 1,
-    "epochs": 30,
-    "module_size": 25,
-    "neurons": 400,
-    "places": None,
-    "extra_reference": None,
-    "workers": None,
-    "max_modules": None,
-    "stdp": "code",
-    "hyperactive": "images",
-    "theta": None,
-    "place_score": "standard",
-    "place_order": "shuffled",
-    "calibration_places": None,
-    "assignment_presentations": 250,
-    "dt": 0.1,
-    "simulate_rest": False,
-    "no_progress": False,
-}
-_EVAL_DEFAULTS: dict[str, Any] = {"members_used": None, "workers": None, "report": None, "no_progress": False}
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ModularTrainOptions:
+    """The Modular SNN's own ``train`` options (defaults: the paper; ``neurovpr train --model modular --help``)."""
+
+    members: int = 1
+    epochs: int = 30
+    module_size: int = 25
+    neurons: int = 400
+    places: int | None = None
+    extra_reference: tuple[Path, ...] = ()
+    workers: int | None = None
+    max_modules: int | None = None
+    stdp: Literal["code", "paper"] = "code"
+    hyperactive: Literal["images", "spikes"] = "images"
+    theta: float | None = None
+    place_score: Literal["standard", "sum"] = "standard"
+    place_order: Literal["shuffled", "route"] = "shuffled"
+    calibration_places: int | None = None
+    assignment_presentations: int = 250
+    dt: float = 0.1
+    simulate_rest: bool = False
+
+    def __post_init__(self) -> None:
+        check_fields(self)
+        if self.assignment_presentations < 1:
+            raise nv.ValidationError(f"--assignment-presentations is {self.assignment_presentations}; it must be >= 1.")
+
+
+@dataclass(frozen=True, slots=True, kw_only=True)
+class ModularEvalOptions:
+    """The Modular SNN's own ``eval`` options."""
+
+    members_used: int | None = None
+    workers: int | None = None
+    report: Path | None = None
+
+    def __post_init__(self) -> None:
+        check_fields(self)
 
 
 def _add(parser: argparse._ActionsContainer, *flags: str, **kwargs: Any) -> None:
@@ -81,11 +100,6 @@ def _add(parser: argparse._ActionsContainer, *flags: str, **kwargs: Any) -> None
         parser.add_argument(*flags, default=argparse.SUPPRESS, **kwargs)
     except argparse.ArgumentError:
         pass
-
-
-def _opt(args: argparse.Namespace, name: str, defaults: dict[str, Any]) -> Any:
-    value = getattr(args, name, None)
-    return defaults[name] if value is None else value
 
 
 def load_extra_references(paths: Any, main: str | Path, n_places: int, places: int | None, progress: bool) -> list[Any]:
@@ -139,6 +153,8 @@ class ModularSNNPlugin(ModelPlugin):
 
     name = "modular"
     description = "Modular SNN and Ensembles of Modular SNNs (Hussaini et al., T-RO 2024)"
+    train_options = ModularTrainOptions
+    eval_options = ModularEvalOptions
 
     def add_train_arguments(self, parser: argparse.ArgumentParser) -> None:
         """Model options of ``neurovpr train`` (defaults: the paper)."""
@@ -183,40 +199,40 @@ class ModularSNNPlugin(ModelPlugin):
         _add(parser, "--no-progress", action="store_true", help="no progress bars")
 
     # ------------------------------------------------------------------ train
-    def train(self, args: argparse.Namespace) -> dict[str, Any]:
-        """Train into ``args.out`` (see the module docstring)."""
-        opt = {k: _opt(args, k, _TRAIN_DEFAULTS) for k in _TRAIN_DEFAULTS}
-        backend = str(args.backend)
+    def run_train(self, request: TrainRequest) -> dict[str, Any]:
+        """Train into ``request.out`` (see the module docstring)."""
+        o: ModularTrainOptions = request.options
+        backend = request.backend
         chosen = nv.get_backend(backend)
         if not chosen.capabilities.learns:
             raise nv.UnsupportedFeatureError(f"backend {backend!r} does not learn on-line, so it cannot train the Modular SNN.")
-        workers = int(opt["workers"] or default_workers())
+        workers = int(o.workers or default_workers())
         if workers < 1:
             raise nv.ValidationError(f"--workers is {workers}, expected at least 1.")
         # input delays start at one step (the simulator's minimum delay)
-        params = ModuleParameters(stdp=opt["stdp"], n_neurons=int(opt["neurons"]), delay_min=max(0.1, float(opt["dt"])))
+        params = ModuleParameters(stdp=o.stdp, n_neurons=int(o.neurons), delay_min=max(0.1, float(o.dt)))
         settings = TrainingSettings(
             params=params,
             coding=RateCoding(),
-            epochs=int(opt["epochs"]),
-            module_size=int(opt["module_size"]),
-            dt=float(opt["dt"]),
-            simulate_rest=bool(opt["simulate_rest"]),
+            epochs=int(o.epochs),
+            module_size=int(o.module_size),
+            dt=float(o.dt),
+            simulate_rest=bool(o.simulate_rest),
             backend=backend,
-            assignment_presentations=int(opt["assignment_presentations"]),
+            assignment_presentations=int(o.assignment_presentations),
         )
         chosen.check_network(settings.network("modular_snn_module"))
         check_network(settings.network("modular_snn_module"), dt=settings.dt, what="train", copies=workers)
-        traverse = load_traverse(args.data, opt["places"])
+        traverse = load_traverse(request.data, o.places)
         if len(traverse.references) > 1:
             print(
                 f"note: {traverse.name} has {len(traverse.references)} reference traverses; this model trains on the "
                 f"first ({traverse.reference.name}) only.",
                 file=sys.stderr,
             )
-        extra_paths = [Path(p) for p in (opt["extra_reference"] or [])]
-        extras = load_extra_references(extra_paths, args.data, traverse.n_reference, opt["places"], not opt["no_progress"])
-        n_cal = opt["calibration_places"]
+        extra_paths = [Path(p) for p in (o.extra_reference or [])]
+        extras = load_extra_references(extra_paths, request.data, traverse.n_reference, o.places, request.progress)
+        n_cal = o.calibration_places
         n_cal = default_calibration_places(traverse.n_reference, settings.module_size) if n_cal is None else int(n_cal)
         if not 0 <= n_cal < traverse.n_reference:
             raise nv.ValidationError(
@@ -224,57 +240,57 @@ class ModularSNNPlugin(ModelPlugin):
             )
         if n_cal and not split_queries(traverse.ground_truth, calibration_places(traverse.n_reference, n_cal))[0].size:
             raise nv.ValidationError(
-                f"no query of {args.data} matches only calibration places; pass --calibration-places 0 or --theta."
+                f"no query of {request.data} matches only calibration places; pass --calibration-places 0 or --theta."
             )
-        reference = traverse.reference.preprocessed(progress=not opt["no_progress"])
+        reference = traverse.reference.preprocessed(progress=request.progress)
         note = describe_plan(len(reference), settings.module_size, n_cal)
         if (len(reference) - n_cal) % settings.module_size or n_cal % settings.module_size:
             print(f"note: {note}.", file=sys.stderr)
         info = {
-            "data": str(Path(args.data).resolve()),
-            "places": opt["places"],
+            "data": str(Path(request.data).resolve()),
+            "places": o.places,
             "dataset": traverse.name,
             "extra_references": [str(p.resolve()) for p in extra_paths],
         }
         summary = train_run(
-            args.out,
+            request.out,
             reference,
             settings,
-            members=int(opt["members"]),
-            seed=int(args.seed),
-            place_order=opt["place_order"],
+            members=int(o.members),
+            seed=request.seed,
+            place_order=o.place_order,
             n_calibration=n_cal,
-            hyperactive=opt["hyperactive"],
-            theta=opt["theta"],
-            score=opt["place_score"],
+            hyperactive=o.hyperactive,
+            theta=o.theta,
+            score=o.place_score,
             workers=workers,
-            scheduler=getattr(args, "scheduler", None),
-            resume=bool(getattr(args, "resume", False)),
-            max_modules=opt["max_modules"],
+            scheduler=request.scheduler,
+            resume=request.resume,
+            max_modules=o.max_modules,
             info=info,
-            progress=not opt["no_progress"],
+            progress=request.progress,
             extra_references=extras,
         )
         return {"model": self.name, "backend": backend, **summary}
 
     # ------------------------------------------------------------------- eval
-    def evaluate(self, args: argparse.Namespace, run_info: dict[str, Any]) -> dict[str, Any]:
-        """Evaluate the run in ``args.run`` (see the module docstring)."""
-        opt = {k: _opt(args, k, _EVAL_DEFAULTS) for k in _EVAL_DEFAULTS}
-        run_dir = Path(args.run)
+    def run_evaluate(self, request: EvalRequest, run_info: dict[str, Any]) -> dict[str, Any]:
+        """Evaluate the run in ``request.run`` (see the module docstring)."""
+        o: ModularEvalOptions = request.options
+        run_dir = request.run
         if run_info.get("format") != RUN_FORMAT:
             raise nv.ValidationError(f"{run_dir}/run.json is not a complete Modular SNN run (format {run_info.get('format')!r}).")
-        backend = getattr(args, "backend", None) or run_info["backend"]
-        progress = not opt["no_progress"]
-        data, traverse, reference, query = _run_data(run_dir, run_info, getattr(args, "data", None), progress)
+        backend = request.backend or run_info["backend"]
+        progress = request.progress
+        data, traverse, reference, query = _run_data(run_dir, run_info, request.data, progress)
         n_members = int(run_info["members"])
-        used = n_members if opt["members_used"] is None else int(opt["members_used"])
+        used = n_members if o.members_used is None else int(o.members_used)
         if not 1 <= used <= n_members:
             raise nv.ValidationError(f"--members-used is {used}, but the run has {n_members} member(s).")
-        seq_len = int(getattr(args, "seq_len", 1) or 1)
-        workers = int(opt["workers"] or default_workers())
+        seq_len = request.seq_len
+        workers = int(o.workers or default_workers())
         counts = query_responses(
-            run_dir, run_info, query, backend=backend, workers=workers, scheduler=getattr(args, "scheduler", None),
+            run_dir, run_info, query, backend=backend, workers=workers, scheduler=request.scheduler,
             progress=progress,
         )  # fmt: skip
         ms = member_similarities(run_dir, run_info, counts, traverse.ground_truth, members=range(used))
@@ -282,7 +298,7 @@ class ModularSNNPlugin(ModelPlugin):
         result = evaluate_similarities(ms.similarities, reference[ms.places], query[ms.queries], gt, seq_lens=(seq_len,))
         level = result["by_seq_len"][str(seq_len)]
         concentration = level["concentration"]
-        report_dir = Path(opt["report"]) if opt["report"] is not None else run_dir / "eval"
+        report_dir = Path(o.report) if o.report is not None else run_dir / "eval"
         files = write_plots(result, report_dir, seq_len, tag=f"{backend}_L{seq_len}")
         out = {
             "model": self.name,

@@ -1,8 +1,8 @@
-"""The interface between the command line and the models, found by entry points.
+"""The model API: typed train/evaluate requests, and the models found by entry points.
 
 Models live outside the core (``models/``, installed as ``neurovpr.models.<name>``)
 and declare a :class:`ModelPlugin` instance under the ``neurovpr.models`` entry
-point group, so the CLI can train and evaluate them without importing them by name.
+point group, so Python code and the CLI can train and evaluate them without importing them by name.
 
 A *run directory* is what ``neurovpr train`` writes: ``run.json`` (at least
 ``{"model": NAME, "backend": ..., "seed": ...}``), the trained network(s) as HDF5,
@@ -13,40 +13,120 @@ find the model.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import importlib.metadata
 import json
 from pathlib import Path
 from typing import Any
 
+from neurovpr.apps.requests import EvalRequest, TrainRequest
 from neurovpr.apps.rundir import RUN_FILE
 from neurovpr.errors import BackendUnavailableError, ValidationError
 
-__all__ = ["ModelPlugin", "MODEL_ENTRY_POINT_GROUP", "model_names", "get_model", "read_run_info"]
+__all__ = ["ModelPlugin", "TrainRequest", "EvalRequest", "MODEL_ENTRY_POINT_GROUP", "model_names", "get_model", "read_run_info"]
 
 MODEL_ENTRY_POINT_GROUP = "neurovpr.models"
 
 
+
+@dataclasses.dataclass(frozen=True, slots=True, kw_only=True)
+class _NoOptions:
+    """A model without options of its own."""
+
+
+def _request(kind: type, options: type, fields: dict[str, Any], model: str) -> Any:
+    common = {f.name for f in dataclasses.fields(kind)} - {"options"}
+    own = {f.name for f in dataclasses.fields(options)}
+    unknown = sorted(set(fields) - common - own)
+    if unknown:
+        raise ValidationError(
+            f"{unknown[0]!r} is not an option of model {model!r}; its options: {', '.join(sorted(own)) or 'none'} "
+            f"(and {', '.join(sorted(common))})."
+        )
+    given = {k: v for k, v in fields.items() if k in own}
+    return kind(**{k: v for k, v in fields.items() if k in common}, options=options(**given))
+
+
+def _given(request: Any, fields: dict[str, Any], build: Any, kind: type) -> Any:
+    if request is None:
+        return build(**fields)
+    if fields:
+        raise ValidationError(f"give either a {kind.__name__} or keyword arguments, not both ({', '.join(fields)}).")
+    if not isinstance(request, kind):
+        raise ValidationError(f"expected a {kind.__name__}, got {type(request).__name__}.")
+    return request
+
+
+def _check_options(options: Any, kind: type, model: str) -> None:
+    if not isinstance(options, kind):
+        raise ValidationError(f"model {model!r} takes options of type {kind.__name__}, got {type(options).__name__}.")
+
+
 class ModelPlugin:
-    """Base class of a model's command-line integration."""
+    """Base class of a model: typed ``train``/``evaluate`` (for Python and the CLI) and its command-line options.
+
+    A model declares ``train_options`` and ``eval_options``, frozen dataclasses of its
+    own options (all with defaults, validated on construction), and implements
+    :meth:`run_train` and :meth:`run_evaluate`. Callers use :meth:`train` and
+    :meth:`evaluate` with a request or with keyword arguments::
+
+        from neurovpr import models
+        summary = models.get("mbsnn").train(data="route.aedat4", out="runs/mb", n_kc=2000)
+
+    The command line builds the same requests from its parsed options.
+    """
 
     #: The name used with ``--model``.
     name: str = ""
     #: One line describing the model.
     description: str = ""
+    #: The model's own ``train`` options (a frozen dataclass whose fields all have defaults).
+    train_options: type = _NoOptions
+    #: The model's own ``eval`` options.
+    eval_options: type = _NoOptions
 
     def add_train_arguments(self, parser: argparse.ArgumentParser) -> None:
-        """Add the model's own ``train`` options (all must have defaults)."""
+        """Add the model's own ``train`` options to the command line (dest names are ``train_options`` fields)."""
 
     def add_eval_arguments(self, parser: argparse.ArgumentParser) -> None:
-        """Add the model's own ``eval`` options (all must have defaults)."""
+        """Add the model's own ``eval`` options to the command line (dest names are ``eval_options`` fields)."""
 
-    def train(self, args: argparse.Namespace) -> dict[str, Any]:
-        """Train into ``args.out`` and return a JSON-ready summary."""
-        raise NotImplementedError
+    def train_request(self, **fields: Any) -> TrainRequest:
+        """A :class:`TrainRequest` from keyword arguments: the common fields and this model's options, by name."""
+        return _request(TrainRequest, self.train_options, fields, self.name)
 
-    def evaluate(self, args: argparse.Namespace, run_info: dict[str, Any]) -> dict[str, Any]:
-        """Evaluate the run in ``args.run``; return the JSON object ``eval --json`` prints."""
-        raise NotImplementedError
+    def eval_request(self, **fields: Any) -> EvalRequest:
+        """An :class:`EvalRequest` from keyword arguments: the common fields and this model's options, by name."""
+        return _request(EvalRequest, self.eval_options, fields, self.name)
+
+    def train(self, request: TrainRequest | None = None, /, **fields: Any) -> dict[str, Any]:
+        """Train (a :class:`TrainRequest`, or its fields and the model's options as keywords); a JSON-ready summary."""
+        request = _given(request, fields, self.train_request, TrainRequest)
+        if request.options is None:
+            request = dataclasses.replace(request, options=self.train_options())
+        _check_options(request.options, self.train_options, self.name)
+        return self.run_train(request)
+
+    def evaluate(
+        self, request: EvalRequest | None = None, /, run_info: dict[str, Any] | None = None, **fields: Any
+    ) -> dict[str, Any]:
+        """Evaluate a trained run (a request or keywords); the JSON object ``eval --json`` prints."""
+        request = _given(request, fields, self.eval_request, EvalRequest)
+        if request.options is None:
+            request = dataclasses.replace(request, options=self.eval_options())
+        _check_options(request.options, self.eval_options, self.name)
+        info = read_run_info(request.run) if run_info is None else run_info
+        if info.get("model") not in (None, self.name):
+            raise ValidationError(f"run {str(request.run)!r} was trained by model {info['model']!r}, not {self.name!r}.")
+        return self.run_evaluate(request, info)
+
+    def run_train(self, request: TrainRequest) -> dict[str, Any]:
+        """Train into ``request.out`` (``request.options`` is a ``train_options``); a JSON-ready summary."""
+        raise NotImplementedError(f"Model {self.name!r} does not implement training.")
+
+    def run_evaluate(self, request: EvalRequest, run_info: dict[str, Any]) -> dict[str, Any]:
+        """Evaluate the run in ``request.run`` whose ``run.json`` is ``run_info``."""
+        raise NotImplementedError(f"Model {self.name!r} does not implement evaluation.")
 
     def infer(self, run_dir: Path, data: Path | None, backend: str, *, seed: int = 0) -> dict[str, Any]:
         """Run the trained model of ``run_dir`` on ``backend`` over the query set of ``data``.

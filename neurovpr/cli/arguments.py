@@ -18,79 +18,29 @@ value; the program prints it as one line and exits 2.
 from __future__ import annotations
 
 import argparse
-import math
+import dataclasses
+import sys
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
+from neurovpr.apps.requests import NUMBERS, Number
 from neurovpr.apps.rundir import NETWORK_FILE, RUN_FILE
 from neurovpr.errors import NeurovprError, ValidationError
 from neurovpr.fileio import check_output
 
-__all__ = ["ModelHelp", "Number", "NUMBERS", "OUTPUTS", "ONLY_WITH", "validate", "option_given", "parse_model_options"]
-
-_MAX_SEED = 2**63 - 1
-
-
-@dataclass(frozen=True, slots=True)
-class Number:
-    """The allowed range of one numeric option (``low``/``high`` inclusive unless ``low_open``)."""
-
-    low: float
-    high: float = math.inf
-    integer: bool = True
-    low_open: bool = False
-    unit: str = ""
-    shown_high: str = ""
-
-    def check(self, option: str, value: object) -> None:
-        """Refuse ``value`` outside the range, naming ``option``."""
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ValidationError(f"{option} must be a number, got {value!r}.")
-        unit = f" {self.unit}" if self.unit else ""
-        kind = "an integer" if self.integer else "a number"
-        low = f"> {self.low:g}" if self.low_open else f">= {self.low:g}"
-        high = f" and <= {self.shown_high or format(self.high, 'g')}{unit}" if math.isfinite(self.high) else unit
-        ok = math.isfinite(value) and (value > self.low if self.low_open else value >= self.low) and value <= self.high
-        if not ok or (self.integer and value != int(value)):
-            shown = format(value, "g") if isinstance(value, float) else str(value)
-            raise ValidationError(f"{option} is {shown}; it must be {kind} {low}{high}.")
-
-
-_COUNT = Number(1)
-#: Numeric options by destination name, for every command and model that declares them.
-NUMBERS: dict[str, Number] = {
-    "seed": Number(0, _MAX_SEED, shown_high="2**63 - 1"),
-    "workers": Number(1, 1024),
-    "threads": Number(1, 1024),
-    "seq_len": Number(1, 100_000),
-    "windows": Number(1, 1_000_000),
-    "members": Number(1, 1000),
-    "members_used": Number(1, 1000),
-    "epochs": Number(1, 1_000_000),
-    "module_size": Number(1, 1_000_000),
-    "neurons": Number(1, 100_000),
-    "places": _COUNT,
-    "max_modules": _COUNT,
-    "queries": _COUNT,
-    "batch_size": _COUNT,
-    "frames_per_place": _COUNT,
-    "calibration_images": _COUNT,
-    "duration": Number(0, 1e9, integer=False, low_open=True, unit="ms"),
-    "presentation": Number(0, 1e9, integer=False, low_open=True, unit="ms"),
-    "dt": Number(0, 10, integer=False, low_open=True, unit="ms"),
-    "timestep": Number(0, 10, integer=False, low_open=True, unit="ms"),
-    "rate": Number(0, 1e6, integer=False, unit="Hz"),
-    "input_rate": Number(0, 1e6, integer=False, unit="Hz"),
-    "stretch": Number(0, 1e6, integer=False, low_open=True),
-    "theta": Number(0, 1e9, integer=False),
-    "tau_syn": Number(0, 1e9, integer=False, low_open=True, unit="ms"),
-    "tile_size": Number(0, 1e12, integer=False, low_open=True, unit="m"),
-    "learning_rate": Number(0, 1e3, integer=False, low_open=True),
-    "weight_decay": Number(0, 1e3, integer=False),
-    "rate_penalty": Number(0, 1e6, integer=False),
-}
+__all__ = [
+    "ModelHelp",
+    "Number",
+    "NUMBERS",
+    "OUTPUTS",
+    "ONLY_WITH",
+    "validate",
+    "option_given",
+    "parse_model_options",
+    "model_options",
+    "show_progress",
+]
 
 Kind = Literal["file", "folder"]
 #: Output options: ``(command, destination) -> (kind, required suffix)``.
@@ -187,3 +137,13 @@ def parse_model_options(parser: argparse.ArgumentParser, argv: Sequence[str], co
         )
     validate(args, command, argv)
     return args
+
+
+def model_options(args: argparse.Namespace, kind: type) -> Any:
+    """The model's options dataclass ``kind`` from the parsed ``args`` (a field not given keeps its default)."""
+    return kind(**{f.name: getattr(args, f.name) for f in dataclasses.fields(kind) if hasattr(args, f.name)})
+
+
+def show_progress(args: argparse.Namespace) -> bool:
+    """Progress bars unless ``--no-progress``, or ``--json`` with stderr not a terminal."""
+    return not getattr(args, "no_progress", False) and (not getattr(args, "json", False) or sys.stderr.isatty())

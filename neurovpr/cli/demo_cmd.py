@@ -67,22 +67,15 @@ def run(args: argparse.Namespace) -> int:
     with tempfile.TemporaryDirectory(prefix="neurovpr-demo-") as tmp:
         data, run_dir = Path(tmp) / "data", Path(tmp) / "run"
         write_generic(synthetic_traverse(args.places, seed=args.seed, query=query_look), data)
-        train_parser = argparse.ArgumentParser(add_help=False)
-        model.add_train_arguments(train_parser)
-        options = ["--members", str(args.members), "--epochs", str(args.epochs), "--module-size", str(args.module_size)]
-        if args.workers is not None:
-            options += ["--workers", str(args.workers)]
-        targs = train_parser.parse_args(options)
-        targs.__dict__.update(data=data, out=run_dir, backend=args.backend, seed=args.seed, scheduler=None, resume=False)
-        trained = model.train(targs)
+        trained = model.train(
+            data=data, out=run_dir, backend=args.backend, seed=args.seed,
+            members=args.members, epochs=args.epochs, module_size=args.module_size, workers=args.workers,
+        )  # fmt: skip
         info = read_run_info(run_dir)
-        eval_parser = argparse.ArgumentParser(add_help=False)
-        model.add_eval_arguments(eval_parser)
-        results = {}
-        for seq_len in (1, args.seq_len):
-            eargs = eval_parser.parse_args(["--report", str(args.out)])
-            eargs.__dict__.update(run=run_dir, data=None, backend=args.backend, seq_len=seq_len, scheduler=None)
-            results[seq_len] = model.evaluate(eargs, info)
+        results = {
+            seq_len: model.evaluate(run=run_dir, backend=args.backend, seq_len=seq_len, report=args.out, run_info=info)
+            for seq_len in (1, args.seq_len)
+        }
         hardware = _hardware_rows(sorted((run_dir / "modules").glob("*.h5"))[0], args.out)
     elapsed = time.perf_counter() - start
     summary = _summary(args, trained, results, elapsed)

@@ -7,7 +7,8 @@ import json
 from pathlib import Path
 
 from neurovpr.apps.modelapi import get_model, read_run_info
-from neurovpr.cli.arguments import ModelHelp, parse_model_options
+from neurovpr.apps.requests import EvalRequest
+from neurovpr.cli.arguments import ModelHelp, model_options, parse_model_options, show_progress
 from neurovpr.cli.main import _Parser
 from neurovpr.evaluation.neurobench import neurobench_block
 
@@ -43,7 +44,11 @@ def run(args: argparse.Namespace) -> int:
     info = read_run_info(args.run)
     model = get_model(info["model"])
     args = parse_model_options(_model_parser(args.run), args.argv[1:], "eval", info["model"])
-    result = model.evaluate(args, info)
+    request = EvalRequest(
+        run=args.run, data=args.data, backend=args.backend, seq_len=args.seq_len, progress=show_progress(args),
+        options=model_options(args, model.eval_options),
+    )
+    result = model.evaluate(request, info)
     result.setdefault("neurobench", neurobench_block(args.run))
     if args.json:
         print(json.dumps(result))

@@ -9,7 +9,8 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from neurovpr.apps.modelapi import ModelPlugin, get_model, model_names
-from neurovpr.cli.arguments import ModelHelp, parse_model_options
+from neurovpr.apps.requests import TrainRequest
+from neurovpr.cli.arguments import ModelHelp, model_options, parse_model_options, show_progress
 from neurovpr.cli.main import _Parser
 from neurovpr.fileio import remove_stale_temps
 
@@ -50,30 +51,30 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=run, model_options=True)
 
 
-def parse_train_arguments(model: ModelPlugin | str, argv: Sequence[str]) -> tuple[ModelPlugin, argparse.Namespace]:
-    """``neurovpr train`` arguments ``argv`` (including ``--model``) parsed with ``model``'s options alone.
+def train_request(model: ModelPlugin | str, argv: Sequence[str]) -> tuple[ModelPlugin, TrainRequest, bool]:
+    """``neurovpr train`` arguments ``argv`` (including ``--model``) as the chosen model's :class:`TrainRequest`.
 
     Models may declare the same flag with different defaults (``--dt``); the listing
     parser accepts them all, and this parse gives the chosen model its own defaults.
-    Benchmarks and tests use it to train exactly as the command line does.
+    Returns the model, the request and whether ``--json`` was given.
     """
     plugin = get_model(model) if isinstance(model, str) else model
-    return plugin, parse_model_options(_model_parser(plugin), argv, "train", plugin.name)
-
-
-def model_arguments(args: argparse.Namespace) -> tuple[ModelPlugin, argparse.Namespace]:
-    """Parse the command line again with the chosen model's options only (:func:`parse_train_arguments`)."""
-    return parse_train_arguments(args.model, args.argv[1:])
+    args = parse_model_options(_model_parser(plugin), argv, "train", plugin.name)
+    request = TrainRequest(
+        data=args.data, out=args.out, backend=args.backend, seed=args.seed, scheduler=args.scheduler,
+        resume=args.resume, progress=show_progress(args), options=model_options(args, plugin.train_options),
+    )  # fmt: skip
+    return plugin, request, bool(args.json)
 
 
 def run(args: argparse.Namespace) -> int:
     """Dispatch to the chosen model."""
-    model, margs = model_arguments(args)
-    removed = remove_stale_temps(margs.out)
+    model, request, as_json = train_request(args.model, args.argv[1:])
+    removed = remove_stale_temps(request.out)
     if removed:
-        print(f"note: removed {len(removed)} temporary file(s) a killed run left in {margs.out}.", file=sys.stderr)
-    summary = model.train(margs)
-    if margs.json:
+        print(f"note: removed {len(removed)} temporary file(s) a killed run left in {request.out}.", file=sys.stderr)
+    summary = model.train(request)
+    if as_json:
         print(json.dumps(summary))
     else:
         for key, value in summary.items():

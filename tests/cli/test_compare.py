@@ -22,7 +22,6 @@ import pytest
 import neurovpr as nv
 from neurovpr.apps import compare, modelapi
 from neurovpr.cli import compare_cmd
-from neurovpr.cli.train_cmd import parse_train_arguments
 from neurovpr.data.generic import open_traverse, write_generic
 from neurovpr.data.synthetic import synthetic_traverse
 from neurovpr.errors import NeurovprError
@@ -315,20 +314,13 @@ def test_agreement_and_correlation_arithmetic():
 
 
 # -- the real models -----------------------------------------------------------------------------
-def _train_args(plugin: modelapi.ModelPlugin, data: Path, out: Path, extra: list[str]) -> argparse.Namespace:
-    """``neurovpr train`` arguments for ``plugin`` (its own options at their defaults, then ``extra``)."""
-    return parse_train_arguments(plugin, ["--model", plugin.name, "--data", str(data), "--out", str(out), *extra])[1]
-
-
 def test_locsnet_converted_network_on_loihi_emulators(dataset: Path, tmp_path: Path):
     """A tiny trained LoCS-Net runs its converted IF_curr_exp network on reference, NengoLoihi's and Lava's fixed-point
     emulators; the comparison reports the paper's metric and the deployment."""
     pytest.importorskip("torch")
     from neurovpr.models.locsnet.plugin import MODEL
 
-    args = _train_args(MODEL, dataset, tmp_path / "run",
-                       ["--preset", "small", "--epochs", "3", "--calibration-images", "4", "--presentation", "20"])  # fmt: skip
-    MODEL.train(args)
+    MODEL.train(data=dataset, out=tmp_path / "run", preset="small", epochs=3, calibration_images=4, presentation=20.0)
     result = compare.compare_model(tmp_path / "run", dataset, "reference,nengo-loihi,lava-fixed", progress=False, model=MODEL)
     assert [r.backend for r in result.rows if r.ran] == ["reference", "nengo-loihi", "lava-fixed"]
     for row in result.rows:
@@ -344,8 +336,11 @@ def test_modular_snn_deployed_on_nengo_and_same_as_eval_on_reference(dataset: Pa
     from neurovpr.models.modular_snn.plugin import MODEL
 
     run = tmp_path / "run"
-    MODEL.train(_train_args(MODEL, dataset, run, ["--neurons", "8", "--module-size", "3", "--epochs", "1",
-                                                 "--workers", "1", "--members", "2", "--no-progress"]))  # fmt: skip
+    from neurovpr.cli.train_cmd import train_request  # the command line builds the same typed request
+
+    argv = ["--model", "modular", "--data", str(dataset), "--out", str(run), "--neurons", "8", "--module-size", "3",
+            "--epochs", "1", "--workers", "1", "--members", "2", "--no-progress"]  # fmt: skip
+    MODEL.train(train_request(MODEL, argv)[1])
     result = compare.compare_model(run, dataset, "reference,nengo", progress=False, model=MODEL)
     ref, nengo = result.rows
     assert nengo.ran, nengo.refused
@@ -354,8 +349,7 @@ def test_modular_snn_deployed_on_nengo_and_same_as_eval_on_reference(dataset: Pa
     assert any(line.startswith("nengo: ") and "current-based" in line for line in result.notes())
     assert "notes" in nengo.as_dict() and not ref.notes
     assert ref.ran and ref.output_counts.shape == (N_PLACES, 2 * 2 * 8)  # 2 members x 2 modules x 8 neurons
-    ev = argparse.Namespace(run=run, data=dataset, backend="reference", seq_len=1, workers=1, report=tmp_path / "eval",
-                            no_progress=True, members_used=None)  # fmt: skip
-    expected = MODEL.evaluate(ev, modelapi.read_run_info(run))["metrics"]
+    ev = MODEL.eval_request(run=run, data=dataset, backend="reference", workers=1, report=tmp_path / "eval", progress=False)
+    expected = MODEL.evaluate(ev)["metrics"]
     for key, value in expected.items():
         assert ref.metrics[key] == pytest.approx(value, abs=1e-6), key

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import json
 import math
@@ -248,33 +247,13 @@ def test_a_checkpoint_or_network_of_another_architecture_is_refused(trained, tmp
         load_checkpoint(tmp_path / "junk.pt", _arch())
 
 
-# -- command line -------------------------------------------------------------------------------
-def _parser(kind: str) -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser()
-    if kind == "train":
-        p.add_argument("--data", type=Path, required=True)
-        p.add_argument("--out", type=Path, required=True)
-        p.add_argument("--backend", default="reference")
-        p.add_argument("--seed", type=int, default=0)
-        p.add_argument("--resume", action="store_true")
-        p.add_argument("--scheduler", default=None)
-        MODEL.add_train_arguments(p)
-    else:
-        p.add_argument("--run", type=Path, required=True)
-        p.add_argument("--data", type=Path, default=None)
-        p.add_argument("--backend", default=None)
-        p.add_argument("--seq-len", type=int, default=1)
-        MODEL.add_eval_arguments(p)
-    return p
-
-
+# -- the model API (typed requests; the command line builds the same) ---------------------------
 def test_train_and_eval_write_a_complete_run_directory(tmp_path, capsys) -> None:
     data = write_generic(synthetic_traverse(10, seed=5), tmp_path / "data")
     run = tmp_path / "run"
-    args = _parser("train").parse_args(
-        ["--data", str(data), "--out", str(run), "--preset", "small", "--epochs", "20", "--batch-size", "4",
-         "--calibration-images", "5", "--presentation", "20", "--input-coding", "regular"])
-    summary = MODEL.train(args)
+    args = dict(data=data, out=run, preset="small", epochs=20, batch_size=4, calibration_images=5, presentation=20.0,
+                input_coding="regular")
+    summary = MODEL.train(**args)
     assert summary["n_places"] == 10 and math.isfinite(summary["loss"])
     for name in ("run.json", "network.h5", "architecture.json", "places.npz", "model.pt"):
         assert (run / name).is_file(), name
@@ -284,8 +263,8 @@ def test_train_and_eval_write_a_complete_run_directory(tmp_path, capsys) -> None
     loaded = load_run(run)
     assert loaded.network.populations["places"].size == 10
     with pytest.raises(nv.ValidationError, match="already holds a finished run"):
-        MODEL.train(args)
-    result = MODEL.evaluate(_parser("eval").parse_args(["--run", str(run), "--queries", "6"]), info)
+        MODEL.train(**args)
+    result = MODEL.evaluate(run=run, queries=6, run_info=info)
     assert set(result["metrics"]) >= {"R@1", "R@5", "P@100R", "AUC_PR"}
     assert result["queries"] == 6 and "SAD" in result["baselines"]
     activity = json.loads((run / "activity.json").read_text())
@@ -304,10 +283,8 @@ def test_train_and_eval_write_a_complete_run_directory(tmp_path, capsys) -> None
 
 def test_train_refuses_a_dataset_with_too_few_places(tmp_path) -> None:
     data = write_generic(synthetic_traverse(3, seed=5), tmp_path / "data")
-    args = _parser("train").parse_args(
-        ["--data", str(data), "--out", str(tmp_path / "run"), "--preset", "small", "--frames-per-place", "3"])
     with pytest.raises(nv.ValidationError, match="at least 2 are needed"):
-        MODEL.train(args)
+        MODEL.train(data=data, out=tmp_path / "run", preset="small", frames_per_place=3)
     assert not (tmp_path / "run").exists()
 
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import argparse
+import dataclasses
 import json
 
 import numpy as np
@@ -10,6 +10,7 @@ import pytest
 import scipy.io
 
 import neurovpr as nv
+from neurovpr.apps.requests import TrainRequest
 from neurovpr.data.events import EventStream, PNSpikes, stretch_time, write_events
 from neurovpr.errors import ValidationError
 from neurovpr.evaluation.metrics import auc_roc
@@ -26,6 +27,7 @@ from neurovpr.models.mbsnn import (
     segment_labels,
     training,
 )
+from neurovpr.models.mbsnn.plugin import MBSNNEvalOptions, MBSNNTrainOptions
 from neurovpr.models.mbsnn.synthetic import synthetic_traversal
 
 N_PN = 120
@@ -197,19 +199,16 @@ def test_train_and_eval_through_the_plugin(tmp_path):
     _save_mat(first, _route(seed=1))
     _save_mat(second, _route(seed=2))
     out = tmp_path / "run"
-    train_args = argparse.Namespace(
-        data=first, out=out, backend="reference", seed=0, scheduler=None, resume=False, json=True,
-        learn="0.4:0.6", n_kc=200, kc_groups=1, timestep=0.1, n_pn=N_PN, keep_still=True, stretch=1.0,
-    )  # fmt: skip
-    summary = MODEL.train(train_args)
+    options = MBSNNTrainOptions(learn="0.4:0.6", n_kc=200, kc_groups=1, timestep=0.1, n_pn=N_PN, keep_still=True)
+    train_request = TrainRequest(data=first, out=out, progress=False, options=options)
+    summary = MODEL.train(train_request)
     info = json.loads((out / "run.json").read_text())
     assert info["model"] == "mbsnn" and info["learn"] == [0.4, 0.6] and summary["n_pn"] == N_PN
     assert info["dt_ms"] == info["parameters"]["dt_ms"]  # what `neurovpr check --run` reads
     assert (out / "network.h5").is_file() and info["neurons"]["paper_count"] == N_PN + 200 + 1
     loaded = nv.load(out / "network.h5")
     assert np.any(loaded.projections[KC_KC].synapse.weight > 0), "learned weights are saved"
-    eval_args = argparse.Namespace(run=out, data=second, backend=None, seq_len=1, json=True, windows=20, stretch=1.0)
-    result = MODEL.evaluate(eval_args, info)
+    result = MODEL.evaluate(run=out, data=second, windows=20, progress=False)
     json.dumps(result)
     assert result["model"] == "mbsnn" and result["backend"] == "reference"
     assert set(result["baselines"]) == {"SeqSLAM", "PerfectMemory"}
@@ -219,7 +218,22 @@ def test_train_and_eval_through_the_plugin(tmp_path):
         assert path.is_file() and path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert json.loads((out / "eval" / "second_reference" / "result.json").read_text())["metrics"] == result["metrics"]
     # resume returns the finished run without training again
-    assert MODEL.train(argparse.Namespace(**{**vars(train_args), "resume": True}))["learning"] == info["learning"]
+    resumed = MODEL.train(dataclasses.replace(train_request, resume=True))
+    assert resumed["learning"] == info["learning"]
+
+
+def test_options_are_checked_on_construction(tmp_path):
+    with pytest.raises(nv.ValidationError, match="--timestep must be in"):
+        MBSNNTrainOptions(timestep=2.0)
+    with pytest.raises(nv.ValidationError, match="--learn"):
+        MODEL.train_request(data=tmp_path, out=tmp_path / "run", learn="0.6:0.4")
+    with pytest.raises(nv.ValidationError, match="windows"):
+        MBSNNEvalOptions(windows=0)
+    with pytest.raises(nv.ValidationError, match="'epochs' is not an option of model 'mbsnn'"):
+        MODEL.train(data=tmp_path, out=tmp_path / "run", epochs=3)
+    with pytest.raises(nv.ValidationError, match="takes options of type MBSNNTrainOptions"):
+        MODEL.train(TrainRequest(data=tmp_path, out=tmp_path / "run", options=MBSNNEvalOptions()))
+    assert not (tmp_path / "run").exists()
 
 
 

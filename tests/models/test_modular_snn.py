@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import importlib.metadata
 import json
@@ -301,17 +300,12 @@ def test_train_and_eval_write_run_json_results_and_plots(tmp_path: Path, capsys:
         summary = json.loads(capsys.readouterr().out)
         assert main(["eval", "--run", str(run_dir), "--seq-len", "2", "--json", "--no-progress"]) == 0
         result = json.loads(capsys.readouterr().out)
-    else:  # the entry point is not installed yet: drive the plugin the way the CLI does
-        p = argparse.ArgumentParser()
-        MODEL.add_train_arguments(p)
-        targs = p.parse_args(opts)
-        targs.__dict__.update(data=data, out=run_dir, backend="reference", seed=3, scheduler=None, resume=False)
-        summary = MODEL.train(targs)
-        p = argparse.ArgumentParser()
-        MODEL.add_eval_arguments(p)
-        eargs = p.parse_args(["--no-progress"])
-        eargs.__dict__.update(run=run_dir, data=None, backend=None, seq_len=2, scheduler=None)
-        result = MODEL.evaluate(eargs, json.loads((run_dir / "run.json").read_text()))
+    else:  # the entry point is not installed yet: build the requests the way the CLI does
+        from neurovpr.cli.train_cmd import train_request
+
+        argv = ["--model", "modular", "--data", str(data), "--out", str(run_dir), "--seed", "3", *opts]
+        summary = MODEL.train(train_request(MODEL, argv)[1])
+        result = MODEL.evaluate(run=run_dir, seq_len=2, progress=False)
     assert summary["complete"] and "last, smaller module of 1" in summary["plan"]
     info = json.loads((run_dir / "run.json").read_text())
     assert info["model"] == "modular" and info["members"] == 2 and len(info["modules"]) == 6

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 from pathlib import Path
 
@@ -112,11 +111,7 @@ def test_compare_runs_the_modular_snn_on_nengo_as_its_current_based_approximatio
 
     data = synthetic_dataset(tmp_path, 4)
     run = tmp_path / "run"
-    p = argparse.ArgumentParser()
-    MODEL.add_train_arguments(p)
-    targs = p.parse_args(["--neurons", "8", "--module-size", "2", "--epochs", "1", "--workers", "1", "--no-progress"])
-    targs.__dict__.update(data=data, out=run, backend="reference", seed=3, scheduler=None, resume=False)
-    MODEL.train(targs)
+    MODEL.train(data=data, out=run, seed=3, neurons=8, module_size=2, epochs=1, workers=1, progress=False)
     result = compare.compare_model(run, data, "reference,nengo", progress=False, model=MODEL)
     ref, nengo = result.rows
     assert ref.ran and nengo.ran, nengo.refused

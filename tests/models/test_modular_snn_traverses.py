@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import importlib.metadata
 import io
@@ -150,15 +149,10 @@ def _train_cli(args: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int
         code = main(["train", "--model", "modular", "--json", *args])
         out = capsys.readouterr()
         return code, json.loads(out.out) if code == 0 else {}, out.err
-    p = argparse.ArgumentParser()  # the entry point is not installed yet: drive the plugin the way the CLI does
-    p.add_argument("--data", type=Path)
-    p.add_argument("--out", type=Path)
-    p.add_argument("--seed", type=int, default=0)
-    MODEL.add_train_arguments(p)
-    targs = p.parse_args(args)
-    targs.__dict__.update(backend="reference", scheduler=None, resume=False)
-    try:
-        return 0, MODEL.train(targs), ""
+    from neurovpr.cli.train_cmd import train_request
+
+    try:  # the entry point is not installed yet: build the request the way the CLI does
+        return 0, MODEL.train(train_request(MODEL, ["--model", "modular", *args])[1]), ""
     except nv.ValidationError as exc:
         return 2, {}, str(exc)
 
