@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set up the project's virtual environment (.venv, Python 3.11) and run one job in it.
 #
-#   bash scripts/bootstrap.sh demo [ARGS...]   install neurovpr and run `neurovpr demo ARGS`
+#   bash scripts/bootstrap.sh demo [ARGS...]   install neurovpr with the tour's backends, run `neurovpr demo ARGS`
 #   bash scripts/bootstrap.sh test [ARGS...]   install every backend the tests exercise, run pytest ARGS
 #
 # Safe to run again: it reuses .venv and only installs what is missing.
@@ -31,7 +31,13 @@ pip_install() { .venv/bin/python -m pip install --quiet --disable-pip-version-ch
 
 case "$mode" in
     demo)
-        pip_install -e .
+        # The tour runs one network on Brian2, Nengo/NengoLoihi and Lava and trains LoCS-Net with
+        # torch: about 1 GB installed (torch 2.13 CPU build most of it). PyNN/NEST, sPyNNaker and
+        # the rest come with `test`; the demo names the extra of each backend it did not run.
+        pip_install -e ".[brian2,nengo,locsnet]"
+        if [ -f scripts/install_lava.sh ]; then
+            bash scripts/install_lava.sh .venv/bin/python
+        fi
         exec .venv/bin/neurovpr demo "$@"
         ;;
     test)

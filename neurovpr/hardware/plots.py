@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import textwrap
 from pathlib import Path
 
 import numpy as np
@@ -44,6 +45,7 @@ def plot_utilisation(report: CheckReport, path: str | os.PathLike) -> Path:
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
     cores = report.partition.cores
     limited = [k for k in _TITLES if any(k in c.limits for c in cores)]
@@ -70,9 +72,12 @@ def plot_utilisation(report: CheckReport, path: str | os.PathLike) -> Path:
         axes[0, 0].legend(handles, names, ncol=min(6, len(names)), fontsize="small", loc="upper right",
                           framealpha=0.8)
     axes[-1, 0].set_xlabel("core (in placement order)")
-    verdict = "fits" if report.fits else f"does not fit ({len(report.partition.violations)} limits broken)"
-    fig.suptitle(f"{report.network} on {report.spec.title}: {len(cores)} cores, {report.partition.chips} chip(s), "
-                 f"{verdict}")
+    axes[-1, 0].xaxis.set_major_locator(MaxNLocator(integer=True))
+    broken = len(report.partition.violations)
+    verdict = "fits" if report.fits else f"does not fit ({broken} limit{'s' if broken != 1 else ''} broken)"
+    title = f"{report.network} on {report.spec.title}: {len(cores)} cores, {report.partition.chips} chip(s), {verdict}"
+    # wrapped to the figure's width (about 11 characters per inch at the default font size), so it is never cut off
+    fig.suptitle("\n".join(textwrap.wrap(title, width=max(30, int(11 * width)))))
     fig.tight_layout()
     try:
         return save_figure(fig, path, dpi=100)

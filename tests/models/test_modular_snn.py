@@ -321,16 +321,3 @@ def test_train_and_eval_write_run_json_results_and_plots(tmp_path: Path, capsys:
         path = Path(result["files"][key])
         assert path.is_file() and path.stat().st_size > 0
     assert json.loads(Path(result["files"]["json"]).read_text())["metrics"] == result["metrics"]
-
-
-@pytest.mark.slow
-def test_demo_runs_end_to_end(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    if not _entry_point_installed():
-        pytest.skip("the 'modular' entry point is not installed (pip install -e .)")
-    from neurovpr.cli.main import main
-
-    assert main(["demo", "--out", str(tmp_path / "demo"), "--json"]) == 0
-    summary = json.loads(capsys.readouterr().out)
-    assert set(summary["R@1"]) == {"Modular SNN", "Ensemble (3)", "SAD"}
-    assert (tmp_path / "demo" / "summary.json").is_file()
-    assert list((tmp_path / "demo").glob("*.png"))
