@@ -155,7 +155,8 @@ def run_tour(
         onchip["about"] = (
             f"LoCS-Net (the paper's layer sizes, {size.places} places, {size.locsnet_epochs} epochs of torch training on "
             f"the summer traverse, regular-rate input coding), queried with {size.onchip_queries} evenly spaced "
-            "places of the late-autumn traverse (the emulated chips take seconds per query here)."
+            "places of the late-autumn traverse (the emulated chips take seconds per query here). The energy is "
+            "the chip's estimate from each backend's own activity counts; at this size static power dominates it."
         )
         seconds["onchip"] = time.perf_counter() - t
 

@@ -24,11 +24,10 @@ def run_modular(
     """Train and evaluate; rows of R@1 at L = 1 and L = ``seq_len`` (one module set, the ensemble, SAD) and plots."""
     model = models.get("modular")
     trained = model.train(
-        data=data, out=run, seed=seed, progress=False,
+        data=data, out=run, seed=seed, progress=True,
         members=members, epochs=epochs, module_size=module_size, neurons=neurons, workers=workers,
     )  # fmt: skip
-    plots = out / "modular"
-    results = {n: model.evaluate(run=run, seq_len=n, report=plots, progress=False) for n in (1, seq_len)}
+    results = {n: model.evaluate(run=run, seq_len=n, progress=False) for n in (1, seq_len)}
     rows: dict[str, dict[str, float]] = {"Modular SNN": {}, "SAD": {}}
     if members > 1:
         rows[f"Ensemble of {members}"] = {}

@@ -32,6 +32,13 @@ def train_locsnet(data: Path, run: Path, *, epochs: int, seed: int) -> dict[str,
     return model.train(data=data, out=run, seed=seed, progress=False, epochs=epochs, input_coding="regular")
 
 
+def _dynamic(energy: dict[str, Any] | None) -> float | None:
+    """The activity-driven share of an energy estimate: every term of its breakdown but static power."""
+    if not energy or energy.get("joules_per_inference") is None:
+        return None
+    return float(sum(v for k, v in energy.get("breakdown", {}).items() if "static" not in k))
+
+
 def query_subset(data: Path, out: Path, queries: int) -> Path:
     """A copy of the generic-layout route ``data`` with ``queries`` evenly spaced queries (all references kept).
 
@@ -76,6 +83,7 @@ def run_onchip(
                 "agreement": row.agreement,
                 "seconds_per_query": row.seconds_per_query,
                 "joules_per_inference": (row.energy or {}).get("joules_per_inference"),
+                "dynamic_joules_per_inference": _dynamic(row.energy),
             }
         )
     return {"hardware": hardware, "rows": rows, "refused": refused, "notes": comparison.notes(), "plot": plot.name}

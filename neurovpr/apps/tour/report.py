@@ -12,6 +12,8 @@ import html
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from neurovpr.fileio import atomic_write_text, save_figure
 
 __all__ = ["SECTIONS", "plot_backends", "write_html"]
@@ -68,10 +70,13 @@ def plot_backends(part: dict[str, Any], path: Path) -> Path:
     left.set_yscale("log")
     left.set_ylabel("wall s per simulated s")
     left.set_title("cost")
-    right.bar(names, [r["count_correlation"] or 0.0 for r in rows], color="tab:green")
-    right.set_ylim(0, 1.05)
-    right.set_ylabel("r of spike counts vs " + str(part["reference_backend"]))
-    right.set_title("agreement")
+    x = np.arange(len(rows))
+    right.bar(x - 0.2, [r["count_correlation"] or 0.0 for r in rows], width=0.4, color="tab:green", label="r of counts")
+    right.bar(x + 0.2, [r["identical_counts"] for r in rows], width=0.4, color="tab:olive", label="identical counts")
+    right.set_xticks(x, names)
+    right.set_ylim(0, 1.15)
+    right.legend(fontsize="small", ncol=2, loc="upper center")
+    right.set_title("agreement with " + str(part["reference_backend"]))
     for ax in (left, right):
         ax.tick_params(axis="x", rotation=30)
         ax.grid(axis="y", alpha=0.3)
@@ -123,10 +128,12 @@ def _fit_html(part: list[dict[str, Any]], folder: Path) -> str:
 def _onchip_html(part: dict[str, Any], folder: Path) -> str:
     rows = [
         [html.escape(r["backend"]), html.escape(r["where"]), _fmt(r["R@1"]), _fmt(r["R@1_drop"], "+.3f"),
-         _fmt(r["agreement"]), _fmt(r["seconds_per_query"], ".3g"), _fmt(r["joules_per_inference"], ".3g")]
+         _fmt(r["agreement"]), _fmt(r["seconds_per_query"], ".3g"), _fmt(r["joules_per_inference"], ".3g"),
+         _fmt(r["dynamic_joules_per_inference"], ".3g")]
         for r in part["rows"]
     ]  # fmt: skip
-    head = ["backend", "runs as", "R@1", "drop vs off-chip", "agreement", "s/query", f"J/inference ({part['hardware']})"]
+    head = ["backend", "runs as", "R@1", "drop vs off-chip", "agreement", "s/query",
+            f"J/inference ({part['hardware']})", "of which activity (J)"]  # fmt: skip
     notes = "".join(f"<li>{html.escape(n)}</li>" for n in part["notes"])
     intro = f"<p>{html.escape(part['about'])}</p>"
     return intro + _table(head, rows) + (f"<ul>{notes}</ul>" if notes else "") + _refusals(part["refused"]) + _image(
