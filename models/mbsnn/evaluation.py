@@ -25,6 +25,7 @@ from neurovpr.data.events import PNSpikes, pn_frames
 from neurovpr.errors import FileFormatError, ValidationError
 from neurovpr.evaluation.metrics import auc_roc, roc
 from neurovpr.fileio import atomic_write_text
+from neurovpr.hardware.energy import write_activity
 from neurovpr.models.route_baselines import perfect_memory_familiarity, seqslam_familiarity
 
 from .model import compile_mbsnn, familiarity, naive_weights, present, segment_labels
@@ -132,6 +133,8 @@ def evaluate(
     t0 = time.perf_counter()
     after = present(sim, test, learn=False, progress="test, trained" if progress else None)
     wall = time.perf_counter() - t0
+    # the trained pass's activity (counted since compile), per window: the NeuroBench block of `eval --json`
+    write_activity(run_dir, sim.statistics(), int(windows), dt_ms=dt, population_spikes=after.counts)
     sim.set_weights(KC_KC, naive_weights(sim))
     before = present(sim, test, learn=False, progress="test, naive" if progress else None)
     rates_before, rates_after = before.rates(int(windows)), after.rates(int(windows))

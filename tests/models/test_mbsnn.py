@@ -217,6 +217,12 @@ def test_train_and_eval_through_the_plugin(tmp_path):
         path = out / "eval" / "second_reference" / f"{name}.png"
         assert path.is_file() and path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert json.loads((out / "eval" / "second_reference" / "result.json").read_text())["metrics"] == result["metrics"]
+    # NeuroBench block of `eval --json`: per window of the trained pass
+    from neurovpr.evaluation.neurobench import neurobench_block
+
+    block = neurobench_block(out)
+    assert "reason" not in block and block["synaptic_operations"]["Effective_ACs"] > 0
+    assert 0.0 < block["activation_sparsity"] < 1.0 and block["steps_per_sample"] > 0
     # resume returns the finished run without training again
     resumed = MODEL.train(dataclasses.replace(train_request, resume=True))
     assert resumed["learning"] == info["learning"]
