@@ -20,7 +20,7 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("demo", help="a few-minute tour: backends, fit checks, on-chip accuracy, Modular SNN vs SAD")
     p.add_argument("--out", type=Path, default=Path("reports/demo"), help="report folder (default: reports/demo)")
     p.add_argument("--size", choices=("full", "tiny"), default="full",
-                   help="full (the tour, a few minutes) or tiny (every part at toy sizes, seconds)")  # fmt: skip
+                   help="full (the tour, a few minutes) or tiny (every part at toy sizes, about a minute)")  # fmt: skip
     p.add_argument("--workers", type=int, default=None, help="worker processes of the Modular SNN (default: the CPU cores)")
     p.add_argument("--seed", type=int, default=1, help="random seed (default 1)")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")

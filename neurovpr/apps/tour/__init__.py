@@ -62,7 +62,7 @@ class TourSize:
 
     @classmethod
     def tiny(cls) -> TourSize:
-        """The smallest tour that still has every part (seconds; for tests)."""
+        """The smallest tour that still has every part (about a minute; for tests)."""
         return cls(places=6, backend_ms=100.0, n_pn=84, n_kc=200, kc_groups=1, recording_ms=300.0, locsnet_epochs=2,
                    onchip_queries=2, modular_epochs=1, module_size=3, modular_neurons=20, seq_len=2)  # fmt: skip
 
