@@ -153,12 +153,9 @@ def save_figure(fig: Any, path: str | os.PathLike[str], **savefig: Any) -> Path:
     """Render a matplotlib figure as PNG and write it atomically; returns the path.
 
     The image is rendered in memory first, so a run killed while plotting never
-    leaves an empty or partial PNG under the final name. The saved area is the figure's
-    tight bounding box (``bbox_inches="tight"`` unless given), so no title, label or
-    legend drawn past the figure's edge is cut off.
+    leaves an empty or partial PNG under the final name.
     """
     buf = io.BytesIO()
-    savefig.setdefault("bbox_inches", "tight")
     fig.savefig(buf, format="png", **savefig)
     atomic_write_bytes(path, buf.getvalue())
     return Path(path)

@@ -80,6 +80,6 @@ def plot_utilisation(report: CheckReport, path: str | os.PathLike) -> Path:
     fig.suptitle("\n".join(textwrap.wrap(title, width=max(30, int(11 * width)))))
     fig.tight_layout()
     try:
-        return save_figure(fig, path, dpi=100)
+        return save_figure(fig, path, dpi=100, bbox_inches="tight")
     finally:
         plt.close(fig)

@@ -74,8 +74,8 @@ def plot_backends(part: dict[str, Any], path: Path) -> Path:
     right.bar(x - 0.2, [r["count_correlation"] or 0.0 for r in rows], width=0.4, color="tab:green", label="r of counts")
     right.bar(x + 0.2, [r["identical_counts"] for r in rows], width=0.4, color="tab:olive", label="identical counts")
     right.set_xticks(x, names)
-    right.set_ylim(0, 1.15)
-    right.legend(fontsize="small", ncol=2, loc="upper center")
+    right.set_ylim(0, 1.0)
+    right.legend(fontsize="small", ncol=2, loc="upper center", bbox_to_anchor=(0.5, -0.3))
     right.set_title("agreement with " + str(part["reference_backend"]))
     for ax in (left, right):
         ax.tick_params(axis="x", rotation=30)
@@ -83,7 +83,7 @@ def plot_backends(part: dict[str, Any], path: Path) -> Path:
     fig.suptitle(f"{part['network']}, {part['duration_ms']:g} ms at dt {part['dt_ms']:g} ms")
     fig.tight_layout()
     try:
-        return save_figure(fig, path, dpi=100)
+        return save_figure(fig, path, dpi=100, bbox_inches="tight")
     finally:
         plt.close(fig)
 
