@@ -32,7 +32,7 @@ pip_install() { .venv/bin/python -m pip install --quiet --disable-pip-version-ch
 case "$mode" in
     demo)
         # The tour runs one network on Brian2, Nengo/NengoLoihi and Lava and trains LoCS-Net with
-        # torch: about 1 GB installed (torch 2.13 CPU build most of it). PyNN/NEST, sPyNNaker and
+        # torch: about 1.6 GB installed (torch 2.13 CPU build most of it). PyNN/NEST, sPyNNaker and
         # the rest come with `test`; the demo names the extra of each backend it did not run.
         pip_install -e ".[brian2,nengo,locsnet]"
         if [ -f scripts/install_lava.sh ]; then
