@@ -91,18 +91,21 @@ def plot_backends(part: dict[str, Any], path: Path) -> Path:
 def _backends_html(part: dict[str, Any], folder: Path) -> str:
     rows = [
         [html.escape(r["backend"]), *(str(v) for v in r["spikes"].values()), _fmt(r["identical_counts"]),
-         _fmt(r["count_correlation"]), _fmt(r["compile_seconds"], ".2f"), _fmt(r["seconds_per_simulated_second"], ".4g")]
+         _fmt(r["count_correlation"]), _fmt(r["compile_seconds"], ".2f"), _fmt(r["warm_up_seconds"], ".2f"),
+         _fmt(r["seconds_per_simulated_second"], ".4g")]
         for r in part["rows"]
     ]  # fmt: skip
     pops = list(part["rows"][0]["spikes"]) if part["rows"] else []
-    head = ["backend", *(f"spikes {p}" for p in pops), "identical counts", "r(counts)", "compile s", "s per sim. s"]
+    head = ["backend", *(f"spikes {p}" for p in pops), "identical counts", "r(counts)", "compile s", "first run s",
+            "s per sim. s"]
     intro = (
         f"<p>{html.escape(part['network'])}, declared once with <code>nv.Network</code> and run with "
         f"<code>nv.compile(net, backend=NAME)</code> for {part['duration_ms']:g} ms at dt {part['dt_ms']:g} ms. "
         f"Agreement is against <code>{html.escape(str(part['reference_backend']))}</code>: the share of neurons with "
         "the same spike count and Pearson's r of the per-neuron counts. Fixed-point chips and Nengo's LIF "
         "discretisation differ from exact integration by design; the conformance suite states each backend's "
-        "tolerance.</p>"
+        "tolerance. Cost: an untimed first run of a tenth of the time (one-time costs such as numba's JIT on a fresh "
+        "install), a reset, then the timed run.</p>"
     )
     return intro + _table(head, rows) + _refusals(part["refused"]) + _image(folder, part.get("plot"), "backends")
 
