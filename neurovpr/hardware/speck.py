@@ -229,7 +229,12 @@ def partition_speck(network: Network, spec: HwSpec, *, seed: int = 0) -> Partiti
             ))
     unplaced = [layer.population for layer, core, cands in zip(layers, assigned, candidates, strict=True)
                 if core is None and cands]
-    if unplaced:
+    if len(layers) > n_cores:
+        violations.append(Violation(
+            limit="cores", where=network.name, value=len(layers), maximum=n_cores,
+            message=f"Network {network.name!r} has {len(layers)} layers but {spec.name} has {n_cores} cores (one layer each).",
+        ))
+    elif unplaced:
         violations.append(Violation(
             limit="cores", where=network.name, value=len(layers), maximum=n_cores,
             message=(f"Network {network.name!r}: no assignment of its {len(layers)} layers to the {n_cores} "
