@@ -12,7 +12,7 @@ synapse cores.
 
 Usage::
 
-    python benchmarks/hardware_papers.py [--json OUT]
+    python benchmarks/hardware_papers.py [--json OUT] [--hw NAME,NAME,...]
 """
 
 from __future__ import annotations
@@ -53,7 +53,9 @@ def main() -> None:
     """Print the table."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument("--hw", default=None, help="comma-separated hwspecs (default: every shipped one)")
     args = parser.parse_args()
+    chosen = set(args.hw.split(",")) if args.hw else None
     models = {  # name: (builder, time step in ms, hwspecs)
         "modular (1 module)": (lambda: modular_snn(1, plastic=False), 1.0, known_hwspecs()),
         "modular (123 modules)": (lambda: modular_snn(123, plastic=False), 1.0, known_hwspecs()),
@@ -63,6 +65,9 @@ def main() -> None:
     }
     rows = []
     for name, (build, dt, hwspecs) in models.items():
+        hwspecs = [hw for hw in hwspecs if chosen is None or hw in chosen]
+        if not hwspecs:
+            continue
         net = build()
         with tempfile.TemporaryDirectory() as tmp:
             activity = _activity(name, net, Path(tmp), dt)
@@ -85,6 +90,7 @@ def main() -> None:
             print(
                 f"{name:22s} {hw:11s} fits={'yes' if d['fits'] else 'no ':3s} chips={d['chips']:3d} cores={d['cores']:4d}"
                 f" energy={energy.joules_per_inference:.4g} J  violations={len(d['violations'])}"
+                f" {sorted({v['limit'] for v in d['violations']})}"
             )
     if args.json:
         args.json.write_text(json.dumps(rows, indent=2, default=str))

@@ -48,6 +48,9 @@ case "$mode" in
         if [ -f scripts/install_neurobench.sh ]; then
             bash scripts/install_neurobench.sh .venv/bin/python
         fi
+        if [ -f scripts/install_synsense.sh ]; then
+            bash scripts/install_synsense.sh .venv/bin/python
+        fi
         exec .venv/bin/python -m pytest "$@"
         ;;
     *)

@@ -39,6 +39,10 @@ class ReferenceBackend(Backend):
         self, network: Network, *, dt: float, seed: int, hardware: HardwareTarget | None, **options: Any
     ) -> Simulation:
         # the simulator (numba and its compiled kernels) loads when a network is compiled, not with the declaration
+        if hardware is not None and hardware.spec.formats.arithmetic == "xylo":
+            from .xylo import XyloSimulation
+
+            return XyloSimulation(network, dt=dt, seed=seed, hardware=hardware, **options)
         if hardware is not None:
             from .fixed_point import FixedPointSimulation
 

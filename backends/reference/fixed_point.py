@@ -49,6 +49,10 @@ def emulation_problem(network: Network, spec: HwSpec, dt: float) -> Exception | 
     """The first reason ``network`` cannot run in ``spec``'s number formats, as the error to raise."""
     variant = spec.formats.arithmetic
     step = spec.timing.time_step_ms
+    if variant == "xylo":
+        from .xylo import xylo_problem
+
+        return xylo_problem(network, dt, step)
     if not math.isclose(dt, step, rel_tol=1e-9):
         return ValidationError(
             f"compile: hardware {spec.name!r} runs in steps of {step:g} ms ([timing].time_step_ms), got dt={dt:g} ms."

@@ -139,13 +139,13 @@ class Timing:
 class EnergySpec:
     """``[energy]``: energy per operation (pJ) and power (W); ``None`` where unpublished."""
 
-    synaptic_op_pJ: float = spec_field("float", low=0.0)
-    synaptic_update_pJ: float = spec_field("float", low=0.0)
-    neuron_update_pJ: float = spec_field("float", low=0.0)
-    neuron_active_update_pJ: float = spec_field("float", low=0.0)
-    spike_within_chip_pJ: float = spec_field("float", low=0.0)
+    synaptic_op_pJ: float | None = spec_field("float", optional=True, low=0.0)
+    synaptic_update_pJ: float | None = spec_field("float", optional=True, low=0.0)
+    neuron_update_pJ: float | None = spec_field("float", optional=True, low=0.0)
+    neuron_active_update_pJ: float | None = spec_field("float", optional=True, low=0.0)
+    spike_within_chip_pJ: float | None = spec_field("float", optional=True, low=0.0)
     spike_between_chips_pJ: float | None = spec_field("float", optional=True, low=0.0)
-    static_power_per_chip_W: float = spec_field("float", low=0.0)
+    static_power_per_chip_W: float | None = spec_field("float", optional=True, low=0.0)
     board_static_power_W: float | None = spec_field("float", optional=True, low=0.0)
     active_core_power_W: float | None = spec_field("float", optional=True, low=0.0)
     wall_time_per_step_s: float = spec_field("float", low=0.0)

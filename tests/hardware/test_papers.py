@@ -14,7 +14,7 @@ import pytest
 from hw_models import locsnet, mbsnn, modular_snn
 
 import neurovpr as nv
-from neurovpr.hardware import check_network, estimate_energy, known_hwspecs, read_activity, write_activity
+from neurovpr.hardware import check_network, estimate_energy, known_hwspecs, load_hwspec, read_activity, write_activity
 
 # (model, hardware) -> (fits, chips, cores, limits broken)
 EXPECTED = {
@@ -112,6 +112,9 @@ def test_energy_per_inference_of_each_paper_model(tmp_path, name):
     assert activity["steps"] == duration
     for hardware in known_hwspecs():
         report = estimate_energy(activity, hardware, network=net)
-        assert report.joules_per_inference > 0
         assert report.joules_per_inference == pytest.approx(sum(report.breakdown.values()))
+        if load_hwspec(hardware).energy.synaptic_op_pJ is None:  # unpublished (SynSense chips): not estimated
+            assert any("synaptic ops" in s for s in report.not_estimated)
+            continue
+        assert report.joules_per_inference > 0
         assert report.breakdown["static"] > 0

@@ -1,0 +1,108 @@
+"""Xylo Audio 2's integer neuron, step by step (the loop :mod:`.xylo` runs).
+
+The update follows XyloSim 0.1.3's C++ bit-accurate model (``src/v2/cpp/XyloIAFNeuron.cpp``
+and ``XyloLayer.cpp``); per step, in this order:
+
+1. the spikes arriving now are added to their synaptic current (16-bit, saturating:
+   XyloSim's ``safe_add``);
+2. each synaptic current decays by a bit shift, ``i -= decay(i, dash_syn)``, with
+   ``decay(x, d) = x >> d``, or ``sign(x)`` when that is zero;
+3. ``dv = safe_add(-decay(v, dash_mem), i_syn1 + i_syn2)``, then the bias, then
+   ``v = safe_add(v, dv)``;
+4. while ``v >= threshold`` and fewer than ``max_spikes`` (31 hidden, 1 output) spikes were
+   emitted this step: one more spike and ``v -= threshold`` (reset by subtraction).
+
+A neuron's spikes of step ``j`` (recorded at the end of the step, ``(j + 1) dt``) reach their
+targets in step ``j + 1``, as XyloSim delivers the hidden neurons' spikes of one step at the
+start of the next; a source spike at ``j dt`` reaches them in step ``j``, as XyloSim's input
+raster row ``j`` does. One step's spikes onto a synapse are added as one sum (XyloSim adds
+them one by one: the result differs only when the current saturates within the step).
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from .kernels import ST_NEURON_UPDATES, ST_STEPS
+from .kernels_fixed import _emit, _sources
+
+__all__ = ["X_ACTIVE", "X_DASH_MEM", "X_DASH_SYN1", "X_DASH_SYN2", "X_VTH", "X_BIAS", "X_MAX_SPIKES", "N_XYLO_COLS",
+           "run_xylo", "safe_add", "bitshift_decay"]
+
+(X_ACTIVE, X_DASH_MEM, X_DASH_SYN1, X_DASH_SYN2, X_VTH, X_BIAS, X_MAX_SPIKES, N_XYLO_COLS) = range(8)
+
+
+@njit(cache=True)
+def safe_add(x: int, y: int, bits: int) -> int:
+    """XyloSim's ``safe_add``: ``x + y``, or the bound on ``y``'s side when ``|bound - x| <= |y|``."""
+    bound = (1 << (bits - 1)) - 1 if y >= 0 else -(1 << (bits - 1))
+    if abs(bound - x) > abs(y):
+        return x + y
+    return bound
+
+
+@njit(cache=True)
+def bitshift_decay(x: int, dash: int) -> int:
+    """XyloSim's ``decay``: ``x >> dash`` (floor), at least one step of ``x``'s sign."""
+    d = x >> dash
+    if d == 0:
+        if x > 0:
+            return 1
+        if x < 0:
+            return -1
+    return d
+
+
+@njit(cache=True)
+def run_xylo(
+    j0, j1, bits, params, v, isyn, counts, s_ptr, s_gp, s_val, s_delay, acc,
+    pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng,
+    rec_mask, rec_t, rec_i, rec_n, headroom, var_idx, var_out, stats,
+):  # fmt: skip
+    """Advance Xylo neurons from step ``j0`` to ``j1``; return the step reached.
+
+    ``isyn`` is ``(N, 2)`` (synapse 1 and 2 of each neuron); the delay ring ``acc`` has one
+    column per (neuron, synapse), ``2 * i + s``.
+    """
+    n = v.size
+    ring = acc.shape[0]
+    cap = rec_t.size
+    for j in range(j0, j1):
+        if rec_n[0] + headroom > cap:
+            return j
+        # a source spike of step j (stamp j) and a neuron spike of step j - 1 (stamp j) both sit at j + 1
+        slot = (j + 1) % ring
+        _sources(j, pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng,
+                 counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_gp, s_val, s_delay, acc, 0, stats)  # fmt: skip
+        for i in range(n):
+            for s in range(2):
+                x = acc[slot, 2 * i + s]
+                if x != 0:
+                    isyn[i, s] = safe_add(isyn[i, s], x, bits)
+                    acc[slot, 2 * i + s] = 0
+        for i in range(n):
+            p = params[i]
+            if p[X_ACTIVE] == 0:
+                continue
+            stats[ST_NEURON_UPDATES] += 1
+            total = 0
+            for s in range(2):
+                isyn[i, s] -= bitshift_decay(isyn[i, s], p[X_DASH_SYN1 + s])
+                total += isyn[i, s]
+            dv = safe_add(-bitshift_decay(v[i], p[X_DASH_MEM]), total, bits)
+            # XyloSim stores the sum in a 16-bit integer
+            dv = ((dv + (1 << (bits - 1))) % (1 << bits)) - (1 << (bits - 1))
+            if p[X_BIAS] != 0:
+                dv = safe_add(dv, p[X_BIAS], bits)
+            vi = safe_add(v[i], dv, bits)
+            spikes = 0
+            while vi >= p[X_VTH] and spikes < p[X_MAX_SPIKES]:
+                spikes += 1
+                vi -= p[X_VTH]
+            v[i] = vi
+            for _ in range(spikes):
+                _emit(i, j + 1, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_gp, s_val, s_delay, acc, 0, stats)
+        for r in range(var_idx.size):
+            var_out[j - j0, r] = v[var_idx[r]]
+        stats[ST_STEPS] += 1
+    return j1

@@ -1,0 +1,1 @@
+"""SynSense Speck / DYNAP-CNN through Sinabs: the import of its samna-free parts (:mod:`.compat`)."""
