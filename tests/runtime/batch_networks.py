@@ -57,6 +57,6 @@ def array_items(n_items: int, n_neurons: int, *, duration: float, rate_hz: float
         per = []
         for _ in range(n_neurons):
             k = rng.poisson(rate_hz * duration / 1000.0)
-            per.append(sorted(np.round(rng.uniform(0.0, duration - 1.0, k), 1).tolist()))
+            per.append(np.unique(np.round(rng.uniform(0.0, duration - 1.0, k), 1)).tolist())
         items.append(per)
     return items
