@@ -111,21 +111,26 @@ class BatchState:
         Time step (ms).
     """
 
-    def __init__(self, net: Compiled, batch: int, dt: float) -> None:
+    def __init__(self, net: Compiled, batch: int, dt: float, *, lead: int = 1) -> None:
         self.net = net
         self.batch = batch
         self.dt = dt
+        # source spikes may be scheduled up to `lead` steps ahead of the step being computed
+        self.ring = net.ring + lead - 1
         n, dev, dtype = net.n, net.device, net.dtype
         self.v = net.v_init.expand(batch, n).clone()
         self.isyn = torch.zeros((2, batch, n), dtype=dtype, device=dev)
         self.ica = net.ica_init.expand(batch, n).clone()
         self.refr = torch.zeros((batch, n), dtype=torch.int32, device=dev)
-        self.buf = torch.zeros(2 * net.ring * batch * n, dtype=dtype, device=dev)
+        self.buf = torch.zeros(2 * self.ring * batch * n, dtype=dtype, device=dev)
         self.counts = torch.zeros((batch, n), dtype=torch.int64, device=dev)
         self.synaptic_events = 0
 
-    def emit(self, population: str, item: torch.Tensor, neuron: torch.Tensor, stamp: int) -> None:
-        """Schedule spikes of ``population`` (one per ``(item, neuron)`` pair, repeats allowed) stamped ``stamp``."""
+    def emit(self, population: str, item: torch.Tensor, neuron: torch.Tensor, stamp: int | torch.Tensor) -> None:
+        """Schedule spikes of ``population`` (one per ``(item, neuron)`` pair, repeats allowed) stamped ``stamp``.
+
+        ``stamp`` is one step for all, or one per spike (no more than the state's ``lead`` steps ahead).
+        """
         fan = self.net.fan.get(population)
         if fan is None or item.numel() == 0:
             return
@@ -138,14 +143,16 @@ class BatchState:
         conn = torch.repeat_interleave(fan.ptr[neuron] - first, deg, output_size=total)
         conn += torch.arange(total, device=deg.device)
         rows = torch.repeat_interleave(item, deg, output_size=total)
-        ring, b, n = self.net.ring, self.batch, self.net.n
+        ring, b, n = self.ring, self.batch, self.net.n
+        if isinstance(stamp, torch.Tensor):
+            stamp = torch.repeat_interleave(stamp, deg, output_size=total)
         slot = torch.remainder(fan.delay[conn] + stamp, ring)
         flat = ((fan.receptor[conn] * ring + slot) * b + rows) * n + fan.post[conn]
         self.buf.index_add_(0, flat, fan.weight[conn])
 
     def deliver(self, j: int) -> None:
         """Add the arrivals of step ``j`` to the synaptic state and clear their ring slot."""
-        ring = self.net.ring
+        ring = self.ring
         slots = self.buf.view(2, ring, self.batch, self.net.n)[:, j % ring]
         self.isyn += slots
         slots.zero_()

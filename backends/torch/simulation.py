@@ -33,6 +33,9 @@ __all__ = ["TorchSimulation", "resolve_device"]
 
 T = TypeVar("T")
 
+#: Steps of source spikes a batch schedules at once (fewer, larger tensor operations; a longer delay ring).
+_LEAD = 16
+
 _DTYPES = {"float64": torch.float64, "float32": torch.float32}
 
 
@@ -194,7 +197,7 @@ class TorchSimulation(HostedSimulation):
             chunk = items[lo : lo + self._batch_size]
             size = len(chunk)
             events = self._batch_events(chunk, n_steps)
-            state = BatchState(self._net, size, self._dt)
+            state = BatchState(self._net, size, self._dt, lead=_LEAD)
             spikes, volts = self._drive(state, 0, n_steps, events, keep_spikes=spike_trains, voltage=voltage)
             neuron_counts = state.counts.cpu().numpy()
             for name in populations:
@@ -263,18 +266,24 @@ class TorchSimulation(HostedSimulation):
         the ``(n_steps, batch, size)`` membrane of each population in ``voltage``.
         """
         dev = self._device
+        lead = state.ring - self._net.ring + 1
         bounds, tensors = {}, {}
         for name, (steps, item, neurons) in events.items():
-            bounds[name] = np.searchsorted(steps, np.arange(first, first + n_steps + 1), side="left")
-            tensors[name] = (torch.as_tensor(item, device=dev), torch.as_tensor(neurons, device=dev))
+            bounds[name] = np.searchsorted(steps, np.arange(first, first + n_steps + lead), side="left")
+            tensors[name] = (
+                torch.as_tensor(steps, device=dev),
+                torch.as_tensor(item, device=dev),
+                torch.as_tensor(neurons, device=dev),
+            )
         kept: dict[str, list[tuple[int, torch.Tensor]]] = {name: [] for name in self._neuron_pops}
         volts: dict[str, list[torch.Tensor]] = {name: [] for name in voltage}
         for k in range(n_steps):
             j = first + k
-            for name, (item, neurons) in tensors.items():
-                a, b = bounds[name][k], bounds[name][k + 1]
-                if b > a:
-                    state.emit(name, item[a:b], neurons[a:b], j)
+            if k % lead == 0:  # the source spikes of the next `lead` steps, scheduled at once
+                for name, (steps, item, neurons) in tensors.items():
+                    a, b = bounds[name][k], bounds[name][min(k + lead, n_steps)]
+                    if b > a:
+                        state.emit(name, item[a:b], neurons[a:b], steps[a:b])
             state.deliver(j)
             for name, spikes in state.update(j):
                 if keep_spikes:
