@@ -23,6 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
+from neurovpr.resources import require_memory
+
 from .translation import Layout, NeuronGroup
 
 __all__ = ["Compiled", "BatchState", "FLUSH"]
@@ -118,6 +120,10 @@ class BatchState:
         # source spikes may be scheduled up to `lead` steps ahead of the step being computed
         self.ring = net.ring + lead - 1
         n, dev, dtype = net.n, net.device, net.dtype
+        width = 8 if dtype == torch.float64 else 4
+        need = batch * n * (2 * self.ring * width + 4 * width + 4 + 8)  # delay ring, v, isyn, ica, refr, counts
+        require_memory(need, f"torch backend: a batch of {batch} items of {n} neurons with a {self.ring}-step delay ring",
+                       " (lower the compile option batch_size)")  # fmt: skip
         self.v = net.v_init.expand(batch, n).clone()
         self.isyn = torch.zeros((2, batch, n), dtype=dtype, device=dev)
         self.ica = net.ica_init.expand(batch, n).clone()

@@ -92,3 +92,13 @@ def test_options_and_refusals() -> None:
     plastic.replace_projection(proj.replace(synapse=nv.DiehlCookSTDP(weight=0.05)))
     with pytest.raises(nv.UnsupportedFeatureError, match="plasticity off"):
         nv.compile(plastic, backend="torch", dt=0.1, seed=1)
+
+
+def test_a_batch_too_large_for_the_memory_limit_is_refused_before_allocation(monkeypatch: pytest.MonkeyPatch) -> None:
+    items = [{"image": s} for s in array_items(4, 72, duration=5.0, rate_hz=100.0, seed=2)]
+    sim = nv.compile(conv_current(), backend="torch", dt=0.1, seed=1, batch_size=4)
+    monkeypatch.setenv("NEUROVPR_MAX_MEMORY", "100k")
+    with pytest.raises(nv.ValidationError, match="batch_size"):
+        sim.run_batch(5.0, items)
+    monkeypatch.delenv("NEUROVPR_MAX_MEMORY")
+    assert sim.run_batch(5.0, items).counts["maps"].shape == (4, 108)
