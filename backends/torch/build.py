@@ -132,6 +132,18 @@ class BatchState:
         self.counts = torch.zeros((batch, n), dtype=torch.int64, device=dev)
         self.synaptic_events = 0
 
+    def variable(self, name: str) -> torch.Tensor:
+        """The ``(batch, N)`` state of a recordable variable (``theta`` is the learned, fixed threshold)."""
+        if name == "v":
+            return self.v
+        if name in ("isyn_exc", "gsyn_exc"):
+            return self.isyn[0]
+        if name in ("isyn_inh", "gsyn_inh"):
+            return self.isyn[1]
+        if name == "i_ca2":
+            return self.ica
+        return self.net.theta.expand(self.batch, self.net.n)
+
     def emit(self, population: str, item: torch.Tensor, neuron: torch.Tensor, stamp: int | torch.Tensor) -> None:
         """Schedule spikes of ``population`` (one per ``(item, neuron)`` pair, repeats allowed) stamped ``stamp``.
 

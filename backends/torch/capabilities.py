@@ -10,7 +10,13 @@ from __future__ import annotations
 
 from types import MappingProxyType
 
-from neurovpr.backendkit.capabilities import EVERY_CONNECTOR, SPIKE_SOURCES, SPIKING_NEURONS, STATIC_SYNAPSE
+from neurovpr.backendkit.capabilities import (
+    EVERY_CONNECTOR,
+    EVERY_RECORDABLE,
+    SPIKE_SOURCES,
+    SPIKING_NEURONS,
+    STATIC_SYNAPSE,
+)
 from neurovpr.runtime.backend import Capabilities
 
 __all__ = ["CAPABILITIES", "LEARNING_REFUSAL"]
@@ -35,7 +41,7 @@ CAPABILITIES = Capabilities(
     synapses=STATIC_SYNAPSE,
     learns=False,
     heterogeneous_delays=True,
-    recordables=frozenset({"v"}),
+    recordables=EVERY_RECORDABLE,
     reasons=MappingProxyType(_PLASTIC),
     unsupported=MappingProxyType(_UNSUPPORTED),
 )

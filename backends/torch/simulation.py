@@ -136,7 +136,18 @@ class TorchSimulation(HostedSimulation):
             raise UnsupportedFeatureError(f"Backend 'torch' cannot switch plasticity on: {LEARNING_REFUSAL}.")
 
     def _set_recording(self, population: str, variable: str, neurons: np.ndarray) -> None:
-        self._voltages.setdefault(population, [])
+        self._traces.setdefault((population, variable), [])
+
+    def _clear_records(self) -> None:
+        super()._clear_records()
+        self._traces: dict[tuple[str, str], list[np.ndarray]] = {key: [] for key in self._recording}
+
+    def _trace(self, population: str, variable: str) -> tuple[np.ndarray, np.ndarray]:
+        neurons = self._recording[(population, variable)]
+        parts = self._traces.get((population, variable), [])
+        values = np.concatenate(parts) if parts else np.zeros((0, self._network.populations[population].size))
+        times = (self._steps - values.shape[0] + np.arange(values.shape[0]) + 1) * self._dt
+        return times, values[:, neurons]
 
     def _reset(self) -> None:
         self._state = None
@@ -164,16 +175,16 @@ class TorchSimulation(HostedSimulation):
             raster = np.zeros((n_steps, self._network.populations[name].size), dtype=bool)
             raster[steps - first, neurons] = True
             self._record.add(name, raster, first, source=True)
-        voltage = [name for name in self._voltages if name in self._offsets]
-        spikes, traces = self._drive(self._state, first, n_steps, events, keep_spikes=True, voltage=voltage)
+        recorded = [key for key in self._recording if key[0] in self._offsets]
+        spikes, traces = self._drive(self._state, first, n_steps, events, keep_spikes=True, recorded=recorded)
         for name in self._neuron_pops:
             lo, hi = self._offsets[name]
             raster = np.zeros((n_steps, hi - lo), dtype=bool)
             rows, _, neurons = spikes[name]
             raster[rows - first, neurons] = True
             self._record.add(name, raster, first, source=False)
-        for name, values in traces.items():
-            self._voltages[name].append(values[:, 0, :])
+        for key, values in traces.items():
+            self._traces[key].append(values[:, 0, :])
         self._record.add_steps(n_steps)
         self._steps += n_steps
         self._run_ns += time.perf_counter_ns() - started
@@ -192,13 +203,13 @@ class TorchSimulation(HostedSimulation):
         trains: dict[str, list[tuple[np.ndarray, np.ndarray]]] = {name: [] for name in populations} if spike_trains else {}
         recorded = list(self._recording)
         traces: dict[tuple[str, str], list[np.ndarray]] = {key: [] for key in recorded}
-        voltage = sorted({pop for pop, _ in recorded})
+
         for lo in range(0, len(items), self._batch_size):
             chunk = items[lo : lo + self._batch_size]
             size = len(chunk)
             events = self._batch_events(chunk, n_steps)
             state = BatchState(self._net, size, self._dt, lead=_LEAD)
-            spikes, volts = self._drive(state, 0, n_steps, events, keep_spikes=spike_trains, voltage=voltage)
+            spikes, volts = self._drive(state, 0, n_steps, events, keep_spikes=spike_trains, recorded=recorded)
             neuron_counts = state.counts.cpu().numpy()
             for name in populations:
                 pop_size = self._network.populations[name].size
@@ -216,7 +227,7 @@ class TorchSimulation(HostedSimulation):
                         trains[name].extend(_split((steps + 1) * self._dt, item, neurons, size))
             for pop, var in recorded:
                 idx = self._recording[(pop, var)]
-                traces[(pop, var)].append(np.transpose(volts[pop][:, :, idx], (1, 0, 2)))
+                traces[(pop, var)].append(np.transpose(volts[(pop, var)][:, :, idx], (1, 0, 2)))
             stats = self._record.stats
             stats["steps"] += size * n_steps
             stats["neuron_updates"] += size * n_steps * self._net.n
@@ -258,12 +269,12 @@ class TorchSimulation(HostedSimulation):
         events: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]],
         *,
         keep_spikes: bool,
-        voltage: list[str],
+        recorded: list[tuple[str, str]],
     ) -> tuple[dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], dict[str, np.ndarray]]:
         """Advance ``state`` over steps ``first .. first + n_steps - 1`` with the given source events.
 
         Returns each population's spikes ``(steps, items, neurons)`` (when ``keep_spikes``) and
-        the ``(n_steps, batch, size)`` membrane of each population in ``voltage``.
+        the ``(n_steps, batch, size)`` values of each recorded ``(population, variable)``.
         """
         dev = self._device
         lead = state.ring - self._net.ring + 1
@@ -276,7 +287,7 @@ class TorchSimulation(HostedSimulation):
                 torch.as_tensor(neurons, device=dev),
             )
         kept: dict[str, list[tuple[int, torch.Tensor]]] = {name: [] for name in self._neuron_pops}
-        volts: dict[str, list[torch.Tensor]] = {name: [] for name in voltage}
+        volts: dict[tuple[str, str], list[torch.Tensor]] = {key: [] for key in recorded}
         for k in range(n_steps):
             j = first + k
             if k % lead == 0:  # the source spikes of the next `lead` steps, scheduled at once
@@ -288,9 +299,9 @@ class TorchSimulation(HostedSimulation):
             for name, spikes in state.update(j):
                 if keep_spikes:
                     kept[name].append((j, torch.nonzero(spikes)))
-            for name in voltage:
-                lo, hi = self._offsets[name]
-                volts[name].append(state.v[:, lo:hi].clone())
+            for pop, var in recorded:
+                lo, hi = self._offsets[pop]
+                volts[(pop, var)].append(state.variable(var)[:, lo:hi].clone())
         out = {}
         for name, parts in kept.items():
             nz = [p.cpu().numpy() for _, p in parts]
@@ -299,7 +310,7 @@ class TorchSimulation(HostedSimulation):
             )
             pairs = np.concatenate(nz) if nz else np.zeros((0, 2), dtype=np.int64)
             out[name] = (steps, pairs[:, 0], pairs[:, 1])
-        traces = {name: torch.stack(vs).cpu().numpy().astype(np.float64) for name, vs in volts.items() if vs}
+        traces = {key: torch.stack(vs).cpu().numpy().astype(np.float64) for key, vs in volts.items() if vs}
         return out, traces
 
 

@@ -102,3 +102,18 @@ def test_a_batch_too_large_for_the_memory_limit_is_refused_before_allocation(mon
         sim.run_batch(5.0, items)
     monkeypatch.delenv("NEUROVPR_MAX_MEMORY")
     assert sim.run_batch(5.0, items).counts["maps"].shape == (4, 108)
+
+
+def test_batch_traces_of_every_recordable_equal_the_reference() -> None:
+    items = [{"image": s} for s in array_items(3, 72, duration=20.0, rate_hz=300.0, seed=6)]
+    traces = {}
+    for backend in ("reference", "torch"):
+        sim = nv.compile(conv_current(), backend=backend, dt=0.1, seed=2)
+        sim.plasticity(False)
+        for var in ("v", "isyn_exc", "isyn_inh", "i_ca2"):
+            sim.record("places", var, [0, 3])
+        traces[backend] = sim.run_batch(20.0, items).traces
+    assert traces["torch"].keys() == traces["reference"].keys()
+    for key, values in traces["reference"].items():
+        assert values.shape == (3, 200, 2)
+        np.testing.assert_allclose(traces["torch"][key], values, rtol=1e-12, atol=1e-12, err_msg=str(key))
