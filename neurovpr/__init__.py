@@ -51,6 +51,7 @@ from neurovpr.ir.synapses import (
     StaticSynapse,
     STDPMechanism,
 )
+from neurovpr.runtime.batch import BatchResult
 from neurovpr.runtime.compiler import compile
 from neurovpr.runtime.registry import backend_infos, get_backend
 from neurovpr.runtime.simulation import Simulation
@@ -59,6 +60,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "AdditiveWeightDependence",
+    "BatchResult",
     "NO_LEAK",
     "AllToAllConnector",
     "BackendUnavailableError",

@@ -18,12 +18,11 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from neurovpr.backendkit.params import per_neuron
+from neurovpr.backendkit.propagators import propagators
 from neurovpr.backendkit.timing import delay_steps
 from neurovpr.ir.cells import (
     IF_cond_exp,
     IF_cond_exp_adaptive,
-    IF_curr_exp,
     IF_curr_exp_ca2_adaptive,
     SpikeSourceArray,
     SpikeSourcePoisson,
@@ -99,15 +98,14 @@ PRE_ZERO = 760.0
 MAX_PRE_TABLE = 1 << 17
 
 
-def _psc_propagator(dt: float, tau_s: np.ndarray, tau_m: np.ndarray, cm: np.ndarray) -> np.ndarray:
-    """Exact effect on v after one step of an exponentially decaying current of 1 nA."""
-    a = 1.0 / tau_m - 1.0 / tau_s
-    out = np.empty_like(tau_s)
-    small = np.abs(a * dt) < 1e-8
-    out[small] = dt * np.exp(-dt / tau_m[small]) / cm[small]
-    big = ~small
-    out[big] = np.exp(-dt / tau_m[big]) * np.expm1(dt * a[big]) / (a[big] * cm[big])
-    return out
+#: Parameter table column of each exact-integration propagator (:mod:`neurovpr.backendkit.propagators`).
+_COLUMNS = {
+    "v_rest": C_V_REST, "v_reset": C_V_RESET, "v_thresh": C_V_THRESH, "i_offset": C_I_OFFSET, "p22": C_P22,
+    "p20": C_P20, "p11e": C_P11E, "p11i": C_P11I, "p21e": C_P21E, "p21i": C_P21I, "fe": C_FE, "fi": C_FI,
+    "gl": C_GL, "cm": C_CM, "e_rev_e": C_E_REV_E, "e_rev_i": C_E_REV_I, "theta_plus": C_THETA_PLUS,
+    "theta_decay": C_THETA_DECAY, "p11ca": C_P11CA, "p21ca": C_P21CA, "i_alpha": C_I_ALPHA, "refrac": C_REFRAC,
+    "lock": C_LOCK, "v_init": C_V_INIT, "i_ca_init": C_I_CA_INIT,
+}  # fmt: skip
 
 
 def neuron_table(cell: object, n: int, dt: float, v_init: object) -> tuple[int, np.ndarray]:
@@ -115,42 +113,9 @@ def neuron_table(cell: object, n: int, dt: float, v_init: object) -> tuple[int, 
     table = np.zeros((n, N_COLS))
     if isinstance(cell, (SpikeSourcePoisson, SpikeSourceArray)):
         return (KIND_POISSON if isinstance(cell, SpikeSourcePoisson) else KIND_ARRAY), table
-    assert isinstance(cell, (IF_curr_exp, IF_cond_exp, IF_cond_exp_adaptive, IF_curr_exp_ca2_adaptive))
-    g = {name: per_neuron(getattr(cell, name), n) for name in ("cm", "tau_m", "tau_refrac", "tau_syn_E", "tau_syn_I")}
-    table[:, C_V_REST] = per_neuron(cell.v_rest, n)
-    table[:, C_V_RESET] = per_neuron(cell.v_reset, n)
-    table[:, C_V_THRESH] = per_neuron(cell.v_thresh, n)
-    table[:, C_I_OFFSET] = per_neuron(cell.i_offset, n)
-    table[:, C_P22] = np.exp(-dt / g["tau_m"])
-    table[:, C_P20] = g["tau_m"] / g["cm"] * -np.expm1(-dt / g["tau_m"])
-    table[:, C_P11E] = np.exp(-dt / g["tau_syn_E"])
-    table[:, C_P11I] = np.exp(-dt / g["tau_syn_I"])
-    table[:, C_P21E] = _psc_propagator(dt, g["tau_syn_E"], g["tau_m"], g["cm"])
-    table[:, C_P21I] = _psc_propagator(dt, g["tau_syn_I"], g["tau_m"], g["cm"])
-    table[:, C_FE] = g["tau_syn_E"] / dt * -np.expm1(-dt / g["tau_syn_E"])
-    table[:, C_FI] = g["tau_syn_I"] / dt * -np.expm1(-dt / g["tau_syn_I"])
-    table[:, C_GL] = g["cm"] / g["tau_m"]
-    table[:, C_CM] = g["cm"]
-    table[:, C_REFRAC] = np.rint(g["tau_refrac"] / dt)
-    table[:, C_THETA_DECAY] = 1.0
-    table[:, C_P11CA] = 1.0
-    table[:, C_V_INIT] = table[:, C_V_REST] if v_init is None else per_neuron(v_init, n)
-    kind = KIND_CURR
-    if isinstance(cell, (IF_cond_exp, IF_cond_exp_adaptive)):
-        kind = KIND_COND
-        table[:, C_E_REV_E] = per_neuron(cell.e_rev_E, n)
-        table[:, C_E_REV_I] = per_neuron(cell.e_rev_I, n)
-    if isinstance(cell, IF_cond_exp_adaptive):
-        table[:, C_THETA_PLUS] = per_neuron(cell.theta_plus, n)
-        table[:, C_THETA_DECAY] = np.exp(-dt / per_neuron(cell.tau_theta, n))
-        table[:, C_LOCK] = np.maximum(np.rint(per_neuron(cell.tau_lockout, n) / dt) - table[:, C_REFRAC], 0.0)
-    if isinstance(cell, IF_curr_exp_ca2_adaptive):
-        tau_ca = per_neuron(cell.tau_ca2, n)
-        table[:, C_P11CA] = np.exp(-dt / tau_ca)
-        table[:, C_P21CA] = _psc_propagator(dt, tau_ca, g["tau_m"], g["cm"])
-        table[:, C_I_ALPHA] = per_neuron(cell.i_alpha, n)
-        table[:, C_I_CA_INIT] = per_neuron(cell.i_ca2, n)
-    return kind, table
+    for name, values in propagators(cell, n, dt, v_init).items():
+        table[:, _COLUMNS[name]] = values
+    return (KIND_COND if isinstance(cell, (IF_cond_exp, IF_cond_exp_adaptive)) else KIND_CURR), table
 
 
 def rule_row(syn: object) -> np.ndarray:

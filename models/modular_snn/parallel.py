@@ -125,8 +125,13 @@ def train_job(
 
 def query_job(images: np.ndarray, settings: str, backend: str, network: bytes, seed: int) -> np.ndarray:
     """Spike counts ``(n_images, n_neurons)`` of a learned module for ``images`` (runs in a worker)."""
+    from .deployment import static_network
+
     cfg = TrainingSettings.from_dict(json.loads(settings))
-    sim = nv.compile(_network_from_bytes(network), backend=backend, dt=cfg.dt, seed=int(seed))
+    net = _network_from_bytes(network)
+    if not nv.get_backend(backend).capabilities.learns:  # an inference backend (torch) runs the learned weights as static
+        net = static_network(net)
+    sim = nv.compile(net, backend=backend, dt=cfg.dt, seed=int(seed))
     sim.plasticity(False)
     flat = np.asarray(images).reshape(len(images), -1)
     return record_responses(Presenter(sim, cfg), flat)

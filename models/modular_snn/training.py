@@ -157,6 +157,22 @@ class Presenter:
         self._s = settings
         self._started = False
 
+    @property
+    def settings(self) -> TrainingSettings:
+        """How images are shown."""
+        return self._s
+
+    @property
+    def at_start(self) -> bool:
+        """Whether the simulation is at time 0 (nothing shown since the last reset)."""
+        return self._sim.time == 0
+
+    def present_batch(self, images: np.ndarray, *, tick: Callable[[], None] | None = None) -> np.ndarray:
+        """Spike counts ``(n_images, n_neurons)`` of independent presentations from the reset state (``Simulation.run_batch``)."""
+        coding = self._s.coding
+        items = [{INPUT: coding.rates(image)} for image in images]
+        return self._sim.run_batch(coding.presentation_ms, items, populations=[EXC], tick=tick).counts[EXC]
+
     def present(self, image: np.ndarray) -> np.ndarray:
         """Present one preprocessed 0..255 image; spike counts of the excitatory neurons."""
         coding, sim = self._s.coding, self._sim
@@ -193,7 +209,15 @@ def normalise_input_weights(sim: nv.Simulation, target_sum: float, w_max: float,
 
 
 def record_responses(presenter: Presenter, images: np.ndarray, *, tick: Callable[[], None] | None = None) -> np.ndarray:
-    """Spike counts ``(n_images, n_neurons)`` (int32) of every image, in order."""
+    """Spike counts ``(n_images, n_neurons)`` (int32) of every image, in order.
+
+    With reset instead of rest the images are independent items from the reset state, so
+    they go through one ``Simulation.run_batch`` (which a batching backend, ``torch``, runs
+    at once; on the others it is the loop of :meth:`Presenter.present`, with the same
+    result); with simulated rest they are shown one after another.
+    """
+    if not presenter.settings.simulate_rest and len(images) and presenter.at_start:
+        return presenter.present_batch(images, tick=tick).astype(np.int32)
     rows = []
     for image in images:
         rows.append(presenter.present(image))

@@ -4,4 +4,5 @@
 - :mod:`.registry` -- backends found through the ``neurovpr.backends`` entry point
 - :mod:`.compiler` -- ``neurovpr.compile``
 - :mod:`.simulation` -- the ``Simulation`` interface every backend implements
+- :mod:`.batch` -- ``Simulation.run_batch``: many independent items through one network
 """

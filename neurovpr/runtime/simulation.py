@@ -15,6 +15,8 @@ Semantics shared by all backends:
   calcium current, spikes in flight) and clears recordings, but keeps what was
   learned: weights and adaptive thresholds (as PyNN keeps weights).
 - ``plasticity(False)`` freezes learning: weights and adaptive thresholds.
+- ``run_batch(duration, inputs=[...])`` runs independent items from the reset state
+  (:mod:`neurovpr.runtime.batch`).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from __future__ import annotations
 import math
 import os
 from abc import ABC, abstractmethod
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal, Mapping
 
@@ -34,6 +36,7 @@ from neurovpr.ir.connectivity import resolved_seed
 from neurovpr.ir.connectors import ConvolutionConnector, FromListConnector
 from neurovpr.ir.network import Network
 from neurovpr.resources import estimate_network, require_work
+from neurovpr.runtime.batch import BatchResult, run_items
 
 if TYPE_CHECKING:
     from neurovpr.hardware.check import HardwareTarget
@@ -114,14 +117,7 @@ class Simulation(ABC):
     # -- driving -----------------------------------------------------------
     def run(self, duration: float, inputs: Mapping[str, Any] | None = None) -> None:
         """Advance the simulation by ``duration`` ms, first applying ``inputs``."""
-        if isinstance(duration, bool) or not isinstance(duration, (int, float, np.integer, np.floating)):
-            raise ValidationError(f"run: duration must be a number of ms, got {duration!r}.")
-        duration = float(duration)
-        if not math.isfinite(duration) or duration <= 0:
-            raise ValidationError(f"run: duration must be a positive finite number of ms, got {duration!r}.")
-        n_steps = round(duration / self._dt)
-        if n_steps < 1 or abs(n_steps * self._dt - duration) > 1e-6 * max(1.0, duration):
-            raise ValidationError(f"run: duration {duration!r} ms is not a whole number of {self._dt:g} ms steps.")
+        n_steps = self._steps_of(duration, "run")
         if inputs is not None and not isinstance(inputs, Mapping):
             raise ValidationError(
                 f"run: inputs must be a mapping {{population name: rates or spike times}}, got {type(inputs).__name__}; "
@@ -135,6 +131,80 @@ class Simulation(ABC):
         for name, value in clean.items():
             self._set_input(name, value)
         self._run(n_steps)
+
+    def run_batch(
+        self,
+        duration: float,
+        inputs: Sequence[Mapping[str, Any]],
+        *,
+        populations: Sequence[str] | None = None,
+        spike_trains: bool = False,
+        tick: Callable[[], None] | None = None,
+    ) -> BatchResult:
+        """Run independent items, each for ``duration`` ms from the reset state; what each produced.
+
+        Item ``k`` equals ``run(duration, inputs=inputs[k])``, reading the spikes and
+        recorded variables, then ``reset()`` (see :mod:`neurovpr.runtime.batch`); a backend
+        may run the items at once. The simulation must be at time 0 (just compiled or
+        reset) and is reset afterwards.
+
+        Parameters
+        ----------
+        duration
+            Length of every item (ms, a whole number of steps).
+        inputs
+            One mapping ``{source population: rates or spike times}`` per item, all naming
+            the same sources.
+        populations
+            Populations whose spikes are returned (default: all).
+        spike_trains
+            Also return every item's spike trains.
+        tick
+            Called once per finished item (progress reporting).
+        """
+        n_steps = self._steps_of(duration, "run_batch")
+        if isinstance(inputs, Mapping) or not isinstance(inputs, Sequence) or len(inputs) == 0:
+            raise ValidationError(
+                f"run_batch: inputs must be a non-empty sequence of mappings (one per item), got {type(inputs).__name__}."
+            )
+        if self.time != 0:
+            raise SimulationError(
+                f"run_batch: network {self._network.name!r} is at {self.time:g} ms; items start from the reset state, "
+                "call reset() first."
+            )
+        names = populations if populations is not None else list(self._network.populations)
+        for name in names:
+            self._population(name)
+        items: list[dict[str, Any]] = []
+        for k, item in enumerate(inputs):
+            if not isinstance(item, Mapping):
+                raise ValidationError(
+                    f"run_batch: inputs[{k}] must be a mapping of source populations, got {type(item).__name__}."
+                )
+            if items and set(item) != set(items[0]):
+                raise ValidationError(
+                    f"run_batch: inputs[{k}] names sources {sorted(item)}, inputs[0] names {sorted(items[0])}; "
+                    "every item must name the same sources."
+                )
+            items.append({name: self._check_input(name, value) for name, value in item.items()})
+        what = (
+            f"run_batch: {len(items)} items of {duration:g} ms ({n_steps} steps of {self._dt:g} ms) "
+            f"of network {self._network.name!r}"
+        )
+        require_work(len(items) * n_steps * self._step_work, what)
+        return self._run_batch(n_steps, items, list(names), bool(spike_trains), tick)
+
+    def _steps_of(self, duration: Any, what: str) -> int:
+        """Whole steps in ``duration`` ms (validated)."""
+        if isinstance(duration, bool) or not isinstance(duration, (int, float, np.integer, np.floating)):
+            raise ValidationError(f"{what}: duration must be a number of ms, got {duration!r}.")
+        duration = float(duration)
+        if not math.isfinite(duration) or duration <= 0:
+            raise ValidationError(f"{what}: duration must be a positive finite number of ms, got {duration!r}.")
+        n_steps = round(duration / self._dt)
+        if n_steps < 1 or abs(n_steps * self._dt - duration) > 1e-6 * max(1.0, duration):
+            raise ValidationError(f"{what}: duration {duration!r} ms is not a whole number of {self._dt:g} ms steps.")
+        return n_steps
 
     def reset(self) -> None:
         """Time to 0, dynamic state to initial values, recordings cleared; learning kept."""
@@ -378,6 +448,17 @@ class Simulation(ABC):
     @abstractmethod
     def _learned_state(self, population: str) -> dict[str, np.ndarray]:
         """Learned per-neuron values (``theta`` of adaptive neurons)."""
+
+    def _run_batch(
+        self,
+        n_steps: int,
+        items: list[dict[str, Any]],
+        populations: list[str],
+        spike_trains: bool,
+        tick: Callable[[], None] | None,
+    ) -> BatchResult:
+        """Run validated batch items (:meth:`run_batch`); by default one after another with resets."""
+        return run_items(self, n_steps, items, populations, spike_trains, apply=self._set_input, advance=self._run, tick=tick)
 
     def _statistics(self) -> Mapping[str, int]:
         raise SimulationError(f"Backend {self._backend!r} does not count activity.")

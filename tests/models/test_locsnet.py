@@ -344,3 +344,14 @@ def test_nordland_places_are_recognised_above_chance(shared_data, tmp_path) -> N
     counts = SpikingClassifier(to_spiking_network(arch, result.parameters, spiking), arch, spiking).run(qry).counts
     assert np.mean(np.argmax(rates, axis=1) == np.arange(200)) > 10 / 200
     assert np.mean(np.argmax(counts, axis=0) == np.arange(200)) > 5 / 200
+
+
+def test_torch_backend_gives_the_reference_spike_counts_on_the_same_input_spikes(trained, images) -> None:
+    pytest.importorskip("torch")
+    arch = _arch()
+    net = to_spiking_network(arch, trained.parameters, SPIKING)  # regular coding: the input spikes are explicit
+    reference = SpikingClassifier(net, arch, SPIKING).run(images)
+    batched = SpikingClassifier(net, arch, SPIKING, backend="torch", batch_size=5).run(images)
+    np.testing.assert_array_equal(batched.counts, reference.counts)
+    np.testing.assert_array_equal(np.argmax(batched.counts, axis=0), np.argmax(reference.counts, axis=0))
+    assert batched.layer_spikes == reference.layer_spikes

@@ -1,0 +1,235 @@
+"""The batched step: the state of ``B`` independent items and one step of docs/semantics.md on all of them.
+
+Order within step ``j`` (the reference backend's, backends/reference/kernels.py):
+
+1. sources emit their spikes stamped ``j`` into the delay ring;
+2. the ring's slot ``j`` is added to the synaptic currents/conductances and cleared;
+3. each population: exact propagation of the membrane over the step with the synaptic
+   state at its start, decay of the synaptic state, threshold, reset, refractoriness and
+   lockout (one step counter per neuron), the Ca2+ jump; its spikes are stamped ``j + 1``
+   and scheduled into the ring.
+
+A spike is scheduled by looking up its population's fan-out table
+(:class:`.translation.FanOut`) and adding every connection's weight at
+``(receptor, (stamp + delay) % ring, item, target)`` with one ``index_add_``: the work is
+proportional to the spikes, as in an event-driven simulator, and the same code serves
+every connector. Adaptive thresholds are held at their learned values (inference).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import torch
+
+from neurovpr.resources import require_memory
+
+from .translation import Layout, NeuronGroup
+
+__all__ = ["Compiled", "BatchState", "FLUSH"]
+
+#: Synaptic currents (nA) and conductances (uS) below this are set to 0, as the reference backend does.
+FLUSH = 1e-18
+
+
+@dataclass
+class _Group:
+    lo: int
+    hi: int
+    name: str
+    conductance: bool
+    calcium: bool
+    p: dict[str, torch.Tensor]
+    refrac_total: torch.Tensor
+
+
+@dataclass
+class _Fan:
+    ptr: torch.Tensor
+    deg: torch.Tensor
+    post: torch.Tensor
+    weight: torch.Tensor
+    delay: torch.Tensor
+    receptor: torch.Tensor
+
+
+class Compiled:
+    """A :class:`.translation.Layout` as tensors on one device.
+
+    Parameters
+    ----------
+    layout
+        The tables.
+    theta
+        ``(N,)`` adaptive thresholds (0 for neurons without one).
+    device, dtype
+        Where and in which precision the state is computed.
+    """
+
+    def __init__(self, layout: Layout, theta: np.ndarray, *, device: torch.device, dtype: torch.dtype) -> None:
+        self.n = layout.n
+        self.ring = layout.ring
+        self.device = device
+        self.dtype = dtype
+
+        def t(a: np.ndarray, kind: torch.dtype | None = None) -> torch.Tensor:
+            return torch.as_tensor(np.ascontiguousarray(a), dtype=kind or dtype, device=device)
+
+        self.groups = [self._group(g, t) for g in layout.groups]
+        self.fan = {
+            name: _Fan(
+                ptr=t(f.ptr[:-1], torch.int64),
+                deg=t(np.diff(f.ptr), torch.int64),
+                post=t(f.post, torch.int64),
+                weight=t(f.weight),
+                delay=t(f.delay, torch.int64),
+                receptor=t(f.receptor, torch.int64),
+            )
+            for name, f in layout.fanout.items()
+        }
+        self.theta = t(theta)
+        cat = lambda key: np.concatenate([g.params[key] for g in layout.groups]) if layout.groups else np.zeros(0)  # noqa: E731
+        self.v_init = t(cat("v_init"))
+        self.ica_init = t(cat("i_ca_init"))
+
+    @staticmethod
+    def _group(g: NeuronGroup, t) -> _Group:
+        p = {name: t(values) for name, values in g.params.items()}
+        total = t(g.params["refrac"] + g.params["lock"], torch.int32)
+        return _Group(lo=g.lo, hi=g.hi, name=g.name, conductance=g.conductance, calcium=g.calcium, p=p, refrac_total=total)
+
+
+class BatchState:
+    """The dynamic state of ``batch`` items of a :class:`Compiled` network, from the reset state.
+
+    Parameters
+    ----------
+    net
+        The compiled network.
+    batch
+        Number of independent items.
+    dt
+        Time step (ms).
+    """
+
+    def __init__(self, net: Compiled, batch: int, dt: float, *, lead: int = 1) -> None:
+        self.net = net
+        self.batch = batch
+        self.dt = dt
+        # source spikes may be scheduled up to `lead` steps ahead of the step being computed
+        self.ring = net.ring + lead - 1
+        n, dev, dtype = net.n, net.device, net.dtype
+        width = 8 if dtype == torch.float64 else 4
+        need = batch * n * (2 * self.ring * width + 4 * width + 4 + 8)  # delay ring, v, isyn, ica, refr, counts
+        require_memory(need, f"torch backend: a batch of {batch} items of {n} neurons with a {self.ring}-step delay ring",
+                       " (lower the compile option batch_size)")  # fmt: skip
+        self.v = net.v_init.expand(batch, n).clone()
+        self.isyn = torch.zeros((2, batch, n), dtype=dtype, device=dev)
+        self.ica = net.ica_init.expand(batch, n).clone()
+        self.refr = torch.zeros((batch, n), dtype=torch.int32, device=dev)
+        self.buf = torch.zeros(2 * self.ring * batch * n, dtype=dtype, device=dev)
+        self.counts = torch.zeros((batch, n), dtype=torch.int64, device=dev)
+        self.synaptic_events = 0
+
+    def variable(self, name: str) -> torch.Tensor:
+        """The ``(batch, N)`` state of a recordable variable (``theta`` is the learned, fixed threshold)."""
+        if name == "v":
+            return self.v
+        if name in ("isyn_exc", "gsyn_exc"):
+            return self.isyn[0]
+        if name in ("isyn_inh", "gsyn_inh"):
+            return self.isyn[1]
+        if name == "i_ca2":
+            return self.ica
+        return self.net.theta.expand(self.batch, self.net.n)
+
+    def emit(self, population: str, item: torch.Tensor, neuron: torch.Tensor, stamp: int | torch.Tensor) -> None:
+        """Schedule spikes of ``population`` (one per ``(item, neuron)`` pair, repeats allowed) stamped ``stamp``.
+
+        ``stamp`` is one step for all, or one per spike (no more than the state's ``lead`` steps ahead).
+        """
+        fan = self.net.fan.get(population)
+        if fan is None or item.numel() == 0:
+            return
+        deg = fan.deg[neuron]
+        total = int(deg.sum())
+        if total == 0:
+            return
+        self.synaptic_events += total
+        first = torch.cumsum(deg, 0) - deg
+        conn = torch.repeat_interleave(fan.ptr[neuron] - first, deg, output_size=total)
+        conn += torch.arange(total, device=deg.device)
+        rows = torch.repeat_interleave(item, deg, output_size=total)
+        ring, b, n = self.ring, self.batch, self.net.n
+        if isinstance(stamp, torch.Tensor):
+            stamp = torch.repeat_interleave(stamp, deg, output_size=total)
+        slot = torch.remainder(fan.delay[conn] + stamp, ring)
+        flat = ((fan.receptor[conn] * ring + slot) * b + rows) * n + fan.post[conn]
+        self.buf.index_add_(0, flat, fan.weight[conn])
+
+    def deliver(self, j: int) -> None:
+        """Add the arrivals of step ``j`` to the synaptic state and clear their ring slot."""
+        ring = self.ring
+        slots = self.buf.view(2, ring, self.batch, self.net.n)[:, j % ring]
+        self.isyn += slots
+        slots.zero_()
+
+    def update(self, j: int) -> list[tuple[str, torch.Tensor]]:
+        """Advance every population over step ``j``; each population's ``(batch, size)`` spikes (scheduled, counted)."""
+        out = []
+        for g in self.net.groups:
+            spikes = self._conductance(g) if g.conductance else self._current(g)
+            self.counts[:, g.lo : g.hi] += spikes
+            item, neuron = torch.nonzero(spikes, as_tuple=True)
+            self.emit(g.name, item, neuron, j + 1)
+            out.append((g.name, spikes))
+        return out
+
+    def _current(self, g: _Group) -> torch.Tensor:
+        p, sl = g.p, slice(g.lo, g.hi)
+        v, ie, ii, ica, refr = self.v[:, sl], self.isyn[0, :, sl], self.isyn[1, :, sl], self.ica[:, sl], self.refr[:, sl]
+        rest = p["v_rest"]
+        moved = rest + (v - rest) * p["p22"] + ie * p["p21e"] - ii * p["p21i"] - ica * p["p21ca"] + p["i_offset"] * p["p20"]
+        held = refr > 0
+        v_new = torch.where(held, v, moved)
+        refr_new = refr - held.to(refr.dtype)
+        _decay(ie, p["p11e"])
+        _decay(ii, p["p11i"])
+        if g.calcium:
+            _decay(ica, p["p11ca"])
+        spikes = (v_new >= p["v_thresh"]) & (refr_new == 0)
+        self._after_spikes(g, sl, v_new, refr_new, spikes)
+        if g.calcium:
+            ica += spikes * p["i_alpha"]
+        return spikes
+
+    def _conductance(self, g: _Group) -> torch.Tensor:
+        p, sl = g.p, slice(g.lo, g.hi)
+        v, ie, ii, refr = self.v[:, sl], self.isyn[0, :, sl], self.isyn[1, :, sl], self.refr[:, sl]
+        rest = p["v_rest"]
+        held = refr > p["lock"]
+        leak = rest + (v - rest) * p["p22"] + p["i_offset"] * p["p20"]
+        ge = ie * p["fe"]
+        gi = ii * p["fi"]
+        gt = p["gl"] + ge + gi
+        v_inf = (p["gl"] * rest + ge * p["e_rev_e"] + gi * p["e_rev_i"] + p["i_offset"]) / gt
+        moved = v_inf + (v - v_inf) * torch.exp(-self.dt * gt / p["cm"])
+        free = torch.where((ie == 0.0) & (ii == 0.0), leak, moved)
+        v_new = torch.where(held, v, free)
+        refr_new = refr - (refr > 0).to(refr.dtype)
+        _decay(ie, p["p11e"])
+        _decay(ii, p["p11i"])
+        spikes = (v_new >= p["v_thresh"] + self.net.theta[sl]) & (refr_new == 0)
+        self._after_spikes(g, sl, v_new, refr_new, spikes)
+        return spikes
+
+    def _after_spikes(self, g: _Group, sl: slice, v_new: torch.Tensor, refr_new: torch.Tensor, spikes: torch.Tensor) -> None:
+        self.v[:, sl] = torch.where(spikes, g.p["v_reset"], v_new)
+        self.refr[:, sl] = torch.where(spikes, g.refrac_total, refr_new)
+
+
+def _decay(x: torch.Tensor, factor: torch.Tensor) -> None:
+    """``x *= factor`` in place, then values below :data:`FLUSH` in magnitude set to 0."""
+    x.mul_(factor)
+    x.masked_fill_(x.abs() < FLUSH, 0.0)

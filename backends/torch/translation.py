@@ -1,0 +1,114 @@
+"""Translation of the IR into the tables the batched step runs on (plain numpy, no torch).
+
+The neurons of every non-source population share one index space (populations in
+insertion order), so the state of a batch is a few ``(batch, N)`` arrays. Each
+population's exact-integration propagators come from the backend kit
+(:mod:`neurovpr.backendkit.propagators`). Every population that sends spikes (sources
+included) gets one fan-out table: its outgoing connections of all projections, sorted by
+presynaptic neuron (CSR), each with its target in the neuron index space, weight, delay
+in whole steps and receptor (0 excitatory, 1 inhibitory). A spike is delivered by
+looking its connections up in that table, so sparse, dense and convolutional projections
+and per-connection delays all take the same event-driven path.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+
+from neurovpr.backendkit.propagators import propagators
+from neurovpr.backendkit.timing import delay_steps
+from neurovpr.ir.cells import IF_cond_exp, IF_cond_exp_adaptive, IF_curr_exp_ca2_adaptive
+from neurovpr.ir.connectivity import Connections
+from neurovpr.ir.network import Network
+
+__all__ = ["NeuronGroup", "FanOut", "Layout", "build_layout"]
+
+
+@dataclass(frozen=True)
+class NeuronGroup:
+    """One non-source population: its columns ``[lo, hi)`` of the state and its propagators."""
+
+    name: str
+    lo: int
+    hi: int
+    conductance: bool
+    adaptive: bool
+    calcium: bool
+    params: Mapping[str, np.ndarray]
+
+
+@dataclass(frozen=True)
+class FanOut:
+    """The outgoing connections of one population, CSR by presynaptic neuron."""
+
+    ptr: np.ndarray
+    post: np.ndarray
+    weight: np.ndarray
+    delay: np.ndarray
+    receptor: np.ndarray
+
+
+@dataclass(frozen=True)
+class Layout:
+    """Everything the batched step needs: neuron groups, fan-out tables, the delay ring."""
+
+    n: int
+    groups: tuple[NeuronGroup, ...]
+    fanout: Mapping[str, FanOut]
+    ring: int
+
+
+def build_layout(
+    network: Network, connections: Mapping[str, Connections], weights: Mapping[str, np.ndarray], dt: float
+) -> Layout:
+    """Lay ``network`` out with its expanded ``connections`` and current ``weights`` (canonical order)."""
+    groups: list[NeuronGroup] = []
+    lo = 0
+    for name, pop in network.populations.items():
+        if pop.is_source:
+            continue
+        cell = pop.cell_type
+        groups.append(
+            NeuronGroup(
+                name=name,
+                lo=lo,
+                hi=lo + pop.size,
+                conductance=isinstance(cell, (IF_cond_exp, IF_cond_exp_adaptive)),
+                adaptive=isinstance(cell, IF_cond_exp_adaptive),
+                calcium=isinstance(cell, IF_curr_exp_ca2_adaptive),
+                params=propagators(cell, pop.size, dt, pop.v_init),
+            )
+        )
+        lo += pop.size
+    offset = {g.name: g.lo for g in groups}
+    parts: dict[str, list[tuple[np.ndarray, ...]]] = {name: [] for name in network.populations}
+    max_delay = 1
+    for name, proj in network.projections.items():
+        conns = connections[name]
+        steps = delay_steps(conns.delay, dt)
+        if steps.size:
+            max_delay = max(max_delay, int(steps.max()))
+        receptor = np.full(len(conns), 1 if proj.receptor_type == "inhibitory" else 0, dtype=np.int64)
+        parts[proj.pre].append(
+            (conns.pre, conns.post + offset[proj.post], np.asarray(weights[name], np.float64), steps, receptor)
+        )
+    fanout = {}
+    for name, pieces in parts.items():
+        if not pieces:
+            continue
+        pre, post, weight, delay, receptor = (np.concatenate(col) for col in zip(*pieces, strict=True))
+        order = np.argsort(pre, kind="stable")
+        size = network.populations[name].size
+        ptr = np.concatenate([[0], np.cumsum(np.bincount(pre, minlength=size))]).astype(np.int64)
+        fanout[name] = FanOut(
+            ptr=ptr,
+            post=post[order].astype(np.int64),
+            weight=weight[order],
+            delay=delay[order].astype(np.int64),
+            receptor=receptor[order],
+        )
+    # a spike stamped j arrives at j + d; neuron spikes are stamped one step ahead of the step computing them
+    return Layout(n=lo, groups=tuple(groups), fanout=fanout, ring=max_delay + 2)
