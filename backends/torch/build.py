@@ -13,7 +13,11 @@ A spike is scheduled by looking up its population's fan-out table
 (:class:`.translation.FanOut`) and adding every connection's weight at
 ``(receptor, (stamp + delay) % ring, item, target)`` with one ``index_add_``: the work is
 proportional to the spikes, as in an event-driven simulator, and the same code serves
-every connector. Adaptive thresholds are held at their learned values (inference).
+every connector. A projection's dense blocks (:class:`.translation.DenseBlock`) are
+delivered by adding the spiking neurons' rows of the weight matrix into the ring slot
+(one ``index_put_``); source populations' dense blocks are delivered ahead of the step
+loop as drive (:mod:`.drive`). A population with no spike in the batch at a step delivers
+nothing. Adaptive thresholds are held at their learned values (inference).
 """
 
 from __future__ import annotations
@@ -25,9 +29,9 @@ import torch
 
 from neurovpr.resources import require_memory
 
-from .translation import Layout, NeuronGroup
+from .translation import DenseBlock, Layout, NeuronGroup
 
-__all__ = ["Compiled", "BatchState", "FLUSH"]
+__all__ = ["Compiled", "BatchState", "Dense", "FLUSH"]
 
 #: Synaptic currents (nA) and conductances (uS) below this are set to 0, as the reference backend does.
 FLUSH = 1e-18
@@ -52,6 +56,24 @@ class _Fan:
     weight: torch.Tensor
     delay: torch.Tensor
     receptor: torch.Tensor
+
+
+@dataclass
+class Dense:
+    """A :class:`.translation.DenseBlock` on the device."""
+
+    lo: int
+    hi: int
+    delay: int
+    receptor: int
+    weight: torch.Tensor
+    synapses: np.ndarray
+
+    @classmethod
+    def of(cls, block: DenseBlock, device: torch.device, dtype: torch.dtype) -> Dense:
+        """The block's matrix as a tensor."""
+        weight = torch.as_tensor(np.ascontiguousarray(block.weight), dtype=dtype, device=device)
+        return cls(lo=block.lo, hi=block.hi, delay=block.delay, receptor=block.receptor, weight=weight, synapses=block.synapses)
 
 
 class Compiled:
@@ -88,6 +110,9 @@ class Compiled:
             )
             for name, f in layout.fanout.items()
         }
+        self.dense: dict[str, list[Dense]] = {}
+        for block in layout.dense:
+            self.dense.setdefault(block.pre, []).append(Dense.of(block, device, dtype))
         self.theta = t(theta)
         cat = lambda key: np.concatenate([g.params[key] for g in layout.groups]) if layout.groups else np.zeros(0)  # noqa: E731
         self.v_init = t(cat("v_init"))
@@ -113,7 +138,7 @@ class BatchState:
         Time step (ms).
     """
 
-    def __init__(self, net: Compiled, batch: int, dt: float, *, lead: int = 1) -> None:
+    def __init__(self, net: Compiled, batch: int, dt: float, *, lead: int = 1, extra_bytes: int = 0) -> None:
         self.net = net
         self.batch = batch
         self.dt = dt
@@ -121,7 +146,8 @@ class BatchState:
         self.ring = net.ring + lead - 1
         n, dev, dtype = net.n, net.device, net.dtype
         width = 8 if dtype == torch.float64 else 4
-        need = batch * n * (2 * self.ring * width + 4 * width + 4 + 8)  # delay ring, v, isyn, ica, refr, counts
+        # delay ring, v, isyn, ica, refr, counts; extra_bytes: the caller's (the source drive)
+        need = batch * n * (2 * self.ring * width + 4 * width + 4 + 8) + extra_bytes
         require_memory(need, f"torch backend: a batch of {batch} items of {n} neurons with a {self.ring}-step delay ring",
                        " (lower the compile option batch_size)")  # fmt: skip
         self.v = net.v_init.expand(batch, n).clone()
@@ -144,13 +170,20 @@ class BatchState:
             return self.ica
         return self.net.theta.expand(self.batch, self.net.n)
 
-    def emit(self, population: str, item: torch.Tensor, neuron: torch.Tensor, stamp: int | torch.Tensor) -> None:
+    def emit(
+        self, population: str, item: torch.Tensor, neuron: torch.Tensor, stamp: int | torch.Tensor, *, dense: bool = True
+    ) -> None:
         """Schedule spikes of ``population`` (one per ``(item, neuron)`` pair, repeats allowed) stamped ``stamp``.
 
         ``stamp`` is one step for all, or one per spike (no more than the state's ``lead`` steps ahead).
+        ``dense=False`` leaves out the population's dense blocks (delivered as :mod:`.drive`).
         """
+        if item.numel() == 0:
+            return
+        for block in self.net.dense.get(population, ()) if dense else ():
+            self.emit_dense(block, item, neuron, stamp)
         fan = self.net.fan.get(population)
-        if fan is None or item.numel() == 0:
+        if fan is None:
             return
         deg = fan.deg[neuron]
         total = int(deg.sum())
@@ -167,6 +200,22 @@ class BatchState:
         slot = torch.remainder(fan.delay[conn] + stamp, ring)
         flat = ((fan.receptor[conn] * ring + slot) * b + rows) * n + fan.post[conn]
         self.buf.index_add_(0, flat, fan.weight[conn])
+
+    def emit_dense(
+        self, block: Dense, item: torch.Tensor, neuron: torch.Tensor, stamp: int | torch.Tensor, *, count: bool = True
+    ) -> None:
+        """Schedule spikes through a dense block: each adds its row of the weight matrix (see :meth:`emit`).
+
+        ``count=False``: the spikes are already counted in the synaptic-event statistics.
+        """
+        if count:
+            self.synaptic_events += int(block.synapses[neuron.cpu().numpy()].sum())
+        ring = self.buf.view(2, self.ring, self.batch, self.net.n)[block.receptor, :, :, block.lo : block.hi]
+        rows = block.weight[neuron]
+        if isinstance(stamp, torch.Tensor):
+            ring.index_put_((torch.remainder(stamp + block.delay, self.ring), item), rows, accumulate=True)
+        else:
+            ring[(stamp + block.delay) % self.ring].index_put_((item,), rows, accumulate=True)
 
     def deliver(self, j: int) -> None:
         """Add the arrivals of step ``j`` to the synaptic state and clear their ring slot."""

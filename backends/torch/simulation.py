@@ -27,6 +27,7 @@ from neurovpr.runtime.batch import BatchResult
 
 from .build import BatchState, Compiled
 from .capabilities import LEARNING_REFUSAL
+from .drive import SourceDrive
 from .translation import build_layout
 
 __all__ = ["TorchSimulation", "resolve_device"]
@@ -176,7 +177,8 @@ class TorchSimulation(HostedSimulation):
             raster[steps - first, neurons] = True
             self._record.add(name, raster, first, source=True)
         recorded = [key for key in self._recording if key[0] in self._offsets]
-        spikes, traces = self._drive(self._state, first, n_steps, events, keep_spikes=True, recorded=recorded)
+        drive = SourceDrive(self._net, events, 1, first, n_steps)
+        spikes, traces = self._drive(self._state, drive, events, keep_spikes=True, recorded=recorded)
         for name in self._neuron_pops:
             lo, hi = self._offsets[name]
             raster = np.zeros((n_steps, hi - lo), dtype=bool)
@@ -208,8 +210,9 @@ class TorchSimulation(HostedSimulation):
             chunk = items[lo : lo + self._batch_size]
             size = len(chunk)
             events = self._batch_events(chunk, n_steps)
-            state = BatchState(self._net, size, self._dt, lead=_LEAD)
-            spikes, volts = self._drive(state, 0, n_steps, events, keep_spikes=spike_trains, recorded=recorded)
+            drive = SourceDrive(self._net, events, size, 0, n_steps)
+            state = BatchState(self._net, size, self._dt, lead=_LEAD, extra_bytes=drive.bytes)
+            spikes, volts = self._drive(state, drive, events, keep_spikes=spike_trains, recorded=recorded)
             neuron_counts = state.counts.cpu().numpy()
             for name in populations:
                 pop_size = self._network.populations[name].size
@@ -264,19 +267,20 @@ class TorchSimulation(HostedSimulation):
     def _drive(
         self,
         state: BatchState,
-        first: int,
-        n_steps: int,
+        drive: SourceDrive,
         events: dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]],
         *,
         keep_spikes: bool,
         recorded: list[tuple[str, str]],
     ) -> tuple[dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]], dict[str, np.ndarray]]:
-        """Advance ``state`` over steps ``first .. first + n_steps - 1`` with the given source events.
+        """Advance ``state`` over the steps of ``drive`` with the given source events.
 
-        Returns each population's spikes ``(steps, items, neurons)`` (when ``keep_spikes``) and
-        the ``(n_steps, batch, size)`` values of each recorded ``(population, variable)``.
+        Source spikes reach their targets through ``drive`` (dense blocks) and the delay ring
+        (the rest, scheduled ``lead`` steps at a time). Returns each population's spikes
+        ``(steps, items, neurons)`` (when ``keep_spikes``) and the ``(n_steps, batch, size)``
+        values of each recorded ``(population, variable)``.
         """
-        dev = self._device
+        dev, first, n_steps = self._device, drive.first, drive.n_steps
         lead = state.ring - self._net.ring + 1
         bounds, tensors = {}, {}
         for name, (steps, item, neurons) in events.items():
@@ -294,14 +298,17 @@ class TorchSimulation(HostedSimulation):
                 for name, (steps, item, neurons) in tensors.items():
                     a, b = bounds[name][k], bounds[name][min(k + lead, n_steps)]
                     if b > a:
-                        state.emit(name, item[a:b], neurons[a:b], steps[a:b])
+                        state.emit(name, item[a:b], neurons[a:b], steps[a:b], dense=False)
             state.deliver(j)
+            drive.add(state.isyn, j)
             for name, spikes in state.update(j):
                 if keep_spikes:
                     kept[name].append((j, torch.nonzero(spikes)))
             for pop, var in recorded:
                 lo, hi = self._offsets[pop]
                 volts[(pop, var)].append(state.variable(var)[:, lo:hi].clone())
+        drive.schedule_tail(state)
+        state.synaptic_events += drive.synaptic_events
         out = {}
         for name, parts in kept.items():
             nz = [p.cpu().numpy() for _, p in parts]
