@@ -121,6 +121,9 @@ class Compiled:
     @staticmethod
     def _group(g: NeuronGroup, t) -> _Group:
         p = {name: t(values) for name, values in g.params.items()}
+        p["i_offset_p20"] = t(g.params["i_offset"] * g.params["p20"])
+        if g.conductance:
+            p["gl_rest"] = t(g.params["gl"] * g.params["v_rest"])
         total = t(g.params["refrac"] + g.params["lock"], torch.int32)
         return _Group(lo=g.lo, hi=g.hi, name=g.name, conductance=g.conductance, calcium=g.calcium, p=p, refrac_total=total)
 
@@ -258,12 +261,15 @@ class BatchState:
         v, ie, ii, refr = self.v[:, sl], self.isyn[0, :, sl], self.isyn[1, :, sl], self.refr[:, sl]
         rest = p["v_rest"]
         held = refr > p["lock"]
-        leak = rest + (v - rest) * p["p22"] + p["i_offset"] * p["p20"]
+        # the same arithmetic, in the same order, as rest + (v - rest) * p22 + i_offset * p20 (leak),
+        # v_inf = (gl * rest + ge * e_rev_e + gi * e_rev_i + i_offset) / gt and
+        # v_inf + (v - v_inf) * exp(-dt * gt / cm) (moved), with fewer temporaries
+        leak = torch.sub(v, rest).mul_(p["p22"]).add_(rest).add_(p["i_offset_p20"])
         ge = ie * p["fe"]
         gi = ii * p["fi"]
-        gt = p["gl"] + ge + gi
-        v_inf = (p["gl"] * rest + ge * p["e_rev_e"] + gi * p["e_rev_i"] + p["i_offset"]) / gt
-        moved = v_inf + (v - v_inf) * torch.exp(-self.dt * gt / p["cm"])
+        gt = torch.add(p["gl"], ge).add_(gi)
+        v_inf = torch.add(p["gl_rest"], ge.mul_(p["e_rev_e"])).add_(gi.mul_(p["e_rev_i"])).add_(p["i_offset"]).div_(gt)
+        moved = torch.sub(v, v_inf).mul_(gt.mul_(-self.dt).div_(p["cm"]).exp_()).add_(v_inf)
         free = torch.where((ie == 0.0) & (ii == 0.0), leak, moved)
         v_new = torch.where(held, v, free)
         refr_new = refr - (refr > 0).to(refr.dtype)

@@ -1,13 +1,23 @@
-"""Source drive: what the dense blocks of source populations deliver, computed ahead of the step loop.
+"""Source drive: what source populations deliver to their targets, computed ahead of the step loop.
 
 The spikes of source populations (spike arrays, and Poisson trains drawn by the backend
-kit) are known before a run starts. For a dense block (:class:`.build.Dense`) of a
-source, the arrivals of a chunk of steps are one product ``S @ W``: ``S`` is the sparse
-``(steps x items, presynaptic neurons)`` matrix of spike counts shifted by the block's
-delay, ``W`` the block's weight matrix. The step loop then adds one slice of the chunk
-to the synaptic state per step. Chunks are sized so the drive stays within
-:data:`CHUNK_BYTES`. Spikes whose arrival falls after the run are scheduled into the delay
-ring, so state that carries over to the next ``run`` receives them as before.
+kit) are known before a run starts, so their arrivals are computed a chunk of source steps
+at a time, with a few large operations, into a window of the coming steps (``chunk`` plus
+the longest source delay): per item, rows are arrival steps, columns the target columns of
+each receptor. The step loop adds one step's rows to the synaptic state.
+
+- A dense block (:class:`.build.Dense`: one delay, a dense weight matrix) adds ``S @ W``,
+  with ``S`` the sparse ``(arrival step x item, presynaptic neuron)`` matrix of spike counts.
+- A source's fan-out table whose rows pad to a rectangle without doubling it (all-to-all
+  with per-synapse delays, convolutions) is padded once to ``(pre, degree)`` tables of
+  weight and of column offset (``delay x row length + column``); a chunk's spikes are then
+  delivered by one gather of their rows and one ``index_add_``.
+- Other fan-out tables stay on the delay ring (:meth:`.build.BatchState.emit`).
+
+The window is bounded by :data:`WINDOW_BYTES` (the chunk shrinks to one step, never the
+longest delay), and counted in the batch's memory check. What is still in the window when
+the run ends (arrivals after its last step) is added to the delay ring, so state that
+carries over to the next ``run`` receives it.
 """
 
 from __future__ import annotations
@@ -19,22 +29,57 @@ import torch
 
 from .build import BatchState, Compiled, Dense
 
-__all__ = ["SourceDrive", "CHUNK_BYTES"]
+__all__ = ["SourceDrive", "WINDOW_BYTES"]
 
-#: The most memory the drive of one chunk of steps takes (its chunk shrinks to fit, down to one step).
-CHUNK_BYTES = 32 * 2**20
+#: The memory the window of coming steps aims to stay within.
+WINDOW_BYTES = 64 * 2**20
+#: The most (spike, connection) pairs delivered by one ``index_add_`` (bounds its temporaries).
+_PAIRS = 2**21
+
+
+class _Padded:
+    """A source's fan-out table padded to ``(pre, degree)``: weights (0 in the padding) and column offsets."""
+
+    def __init__(self, net: Compiled, name: str, columns: dict[int, tuple[int, int]]) -> None:
+        fan = net.fan[name]
+        degree = int(fan.deg.max()) if fan.deg.numel() else 0
+        slot = torch.arange(degree, device=net.device)
+        conn = fan.ptr[:, None] + slot[None, :]
+        valid = slot[None, :] < fan.deg[:, None]
+        conn = torch.where(valid, conn, 0)
+        col = torch.zeros_like(conn)
+        for receptor, (lo, start) in columns.items():
+            col = torch.where(fan.receptor[conn] == receptor, fan.post[conn] - lo + start, col)
+        self.weight = torch.where(valid, fan.weight[conn], 0.0)
+        self.col = torch.where(valid, col, 0)
+        self.delay = torch.where(valid, fan.delay[conn], 0)
+        self.degree = degree
+        self.deg = fan.deg.cpu().numpy()
+        self.offset: torch.Tensor | None = None
+
+    def offsets(self, row: int, kind: torch.dtype) -> torch.Tensor:
+        """``(pre, degree)`` offsets of the targets in the window from the spike's own row: ``delay x row + column``."""
+        if self.offset is None:
+            self.offset = (self.delay * row + self.col).to(kind)
+        return self.offset
+
+
+def _paddable(net: Compiled, name: str) -> bool:
+    fan = net.fan.get(name)
+    if fan is None or fan.deg.numel() == 0:
+        return False
+    return fan.deg.numel() * int(fan.deg.max()) <= 2 * int(fan.deg.sum())
 
 
 class SourceDrive:
-    """The drive of every source's dense blocks over steps ``first .. first + n_steps - 1`` of a batch.
+    """The drive of the source populations over steps ``first .. first + n_steps - 1`` of a batch.
 
     Parameters
     ----------
     net
         The compiled network.
     events
-        Per source population, its spikes ``(steps, items, neurons)`` sorted by step (items
-        ascending within a step).
+        Per source population, its spikes ``(steps, items, neurons)`` sorted by step.
     batch
         Items in the batch.
     first, n_steps
@@ -50,60 +95,114 @@ class SourceDrive:
         n_steps: int,
     ) -> None:
         self.net, self.batch, self.first, self.n_steps = net, batch, first, n_steps
-        self.blocks = [(events[name], block) for name in events for block in net.dense.get(name, ())]
-        self.spans: dict[int, tuple[int, int]] = {}
+        self.events = events
+        self.blocks = [(name, block) for name in events for block in net.dense.get(name, ())]
+        #: sources whose every connection is delivered here (none of theirs goes through the ring)
+        self.whole = {name for name in events if _paddable(net, name)}
+        lo_hi: dict[int, tuple[int, int]] = {}
+        reach = 1
         for _, block in self.blocks:
-            lo, hi = self.spans.get(block.receptor, (block.lo, block.hi))
-            self.spans[block.receptor] = (min(lo, block.lo), max(hi, block.hi))
-        width = sum(hi - lo for lo, hi in self.spans.values())
-        widest = max((block.hi - block.lo for _, block in self.blocks), default=0)
+            lo_hi[block.receptor] = _union(lo_hi.get(block.receptor), block.lo, block.hi)
+            reach = max(reach, block.delay)
+        for name in self.whole:
+            fan = net.fan[name]
+            reach = max(reach, int(fan.delay.max()))
+            for r in torch.unique(fan.receptor).tolist():
+                post = fan.post[fan.receptor == r]
+                lo_hi[r] = _union(lo_hi.get(r), int(post.min()), int(post.max()) + 1)
+        #: per receptor: its first target neuron, its last + 1, and its first column in the window
+        self.spans: dict[int, tuple[int, int, int]] = {}
+        width = 0
+        for r in sorted(lo_hi):
+            lo, hi = lo_hi[r]
+            self.spans[r] = (lo, hi, width)
+            width += hi - lo
+        self.width = width
+        self.padded = {name: _Padded(net, name, {r: (lo, c) for r, (lo, _, c) in self.spans.items()}) for name in self.whole}
         itemsize = torch.empty(0, dtype=net.dtype).element_size()
-        per_step = batch * (width + widest) * itemsize  # the drive and one block's product
-        self.chunk = max(1, min(n_steps, CHUNK_BYTES // max(per_step, 1)))
-        #: bytes the drive allocates at most
-        self.bytes = self.chunk * per_step if self.blocks else 0
-        self.synaptic_events = sum(int(block.synapses[ev[2]].sum()) for ev, block in self.blocks)
+        row = batch * width * itemsize
+        self.reach = reach
+        self.chunk = max(1, min(n_steps, WINDOW_BYTES // max(row, 1) - reach))
+        widest = max((block.hi - block.lo for _, block in self.blocks), default=0)
+        product = (self.chunk + reach) * batch * widest * itemsize
+        pairs = _PAIRS * (8 + itemsize) if self.whole else 0
+        #: bytes the drive allocates at most (window and the copy of its tail, one block's product, one delivery's temporaries)
+        self.bytes = (self.chunk + 2 * reach) * row + product + pairs if width else 0
+        self.synaptic_events = sum(int(block.synapses[events[name][2]].sum()) for name, block in self.blocks)
+        self.synaptic_events += sum(int(self.padded[name].deg[events[name][2]].sum()) for name in self.whole)
+        self._window: torch.Tensor | None = None
         self._start = first
-        self._drive: dict[int, torch.Tensor] = {}
 
     def add(self, isyn: torch.Tensor, j: int) -> None:
         """Add the drive arriving at step ``j`` to ``isyn`` (``(2, batch, N)``); steps come in order."""
-        if not self.blocks:
+        if not self.width:
             return
-        if not self._drive or j >= self._start + self.chunk:
-            self._load(j)
-        k = j - self._start
-        for receptor, (lo, hi) in self.spans.items():
-            isyn[receptor, :, lo:hi] += self._drive[receptor][k]
+        if self._window is None or j >= self._start + self.chunk:
+            self._advance(j)
+        row = self._window[:, j - self._start]
+        for r, (lo, hi, col) in self.spans.items():
+            isyn[r, :, lo:hi] += row[:, col : col + hi - lo]
 
-    def schedule_tail(self, state: BatchState) -> None:
-        """Schedule into ``state``'s delay ring the spikes arriving after the run."""
+    def finish(self, state: BatchState) -> None:
+        """Add the arrivals after the run's last step (still in the window) to ``state``'s delay ring."""
+        if self._window is None:
+            return
         end = self.first + self.n_steps
-        dev = self.net.device
-        for (steps, item, neurons), block in self.blocks:
-            late = steps + block.delay >= end
-            if late.any():
-                item_t, neuron_t, stamp_t = (torch.as_tensor(a[late], device=dev) for a in (item, neurons, steps))
-                state.emit_dense(block, item_t, neuron_t, stamp_t, count=False)
+        ring = state.buf.view(2, state.ring, self.batch, self.net.n)
+        for k in range(end - self._start, self._window.shape[1]):
+            for r, (lo, hi, col) in self.spans.items():
+                ring[r, (self._start + k) % state.ring, :, lo:hi] += self._window[:, k, col : col + hi - lo]
 
-    def _load(self, start: int) -> None:
-        """Compute the drive of arrival steps ``start .. start + chunk - 1``."""
+    def _advance(self, start: int) -> None:
+        """Move the window to start at step ``start`` and deliver the source spikes of ``start .. start + chunk - 1``.
+
+        The window is ``(item, step, column)``: the arrivals of one item's spikes stay within
+        its own rows, and a chunk's spikes are delivered item after item (cache locality).
+        """
+        size, b = self.chunk + self.reach, self.batch
+        if self._window is None:
+            self._window = torch.zeros((b, size, self.width), dtype=self.net.dtype, device=self.net.device)
+        else:  # arrivals of earlier chunks' spikes that are still to come move to the front
+            keep = size - (start - self._start)
+            self._window[:, :keep] = self._window[:, size - keep :].clone()
+            self._window[:, keep:].zero_()
         self._start = start
-        steps_here = min(self.chunk, self.first + self.n_steps - start)
-        dev, dtype, b = self.net.device, self.net.dtype, self.batch
-        self._drive = {r: torch.zeros((steps_here, b, hi - lo), dtype=dtype, device=dev) for r, (lo, hi) in self.spans.items()}
-        for (steps, item, neurons), block in self.blocks:
-            a, z = np.searchsorted(steps, [start - block.delay, start + steps_here - block.delay], side="left")
+        window = self._window
+        for name, (steps, item, neurons) in self.events.items():
+            a, z = np.searchsorted(steps, [start, start + self.chunk], side="left")
             if z <= a:
                 continue
-            product = _product(steps[a:z] + block.delay - start, item[a:z], neurons[a:z], steps_here * b, b, block)
-            lo_r = self.spans[block.receptor][0]
-            self._drive[block.receptor][:, :, block.lo - lo_r : block.hi - lo_r] += product.view(steps_here, b, -1)
+            order = np.argsort(item[a:z], kind="stable")
+            base = item[a:z][order] * size + steps[a:z][order] - start  # the spike's row if it arrived at its own step
+            who = neurons[a:z][order]
+            for block in self.net.dense.get(name, ()):
+                span = self.spans[block.receptor]
+                product = _product(base + block.delay, who, b * size, block)
+                col = span[2] + block.lo - span[0]
+                window[:, :, col : col + block.hi - block.lo] += product.view(b, size, -1)
+            if name in self.whole:
+                self._scatter(window.view(-1), self.padded[name], base, who)
+
+    def _scatter(self, flat: torch.Tensor, pad: _Padded, base: np.ndarray, neurons: np.ndarray) -> None:
+        """``index_add_`` every connection of the given spikes into the window (at most :data:`_PAIRS` at a time)."""
+        dev = self.net.device
+        kind = torch.int32 if flat.numel() < 2**31 else torch.int64  # half the index traffic where it fits
+        offset = pad.offsets(self.width, kind)
+        step = max(1, _PAIRS // max(pad.degree, 1))
+        for k in range(0, base.size, step):
+            at = torch.as_tensor(base[k : k + step] * self.width, device=dev, dtype=kind)
+            who = torch.as_tensor(neurons[k : k + step], device=dev)
+            index = offset[who]
+            index += at[:, None]
+            flat.index_add_(0, index.view(-1), pad.weight[who].view(-1))
 
 
-def _product(step: np.ndarray, item: np.ndarray, neuron: np.ndarray, rows: int, batch: int, block: Dense) -> torch.Tensor:
-    """``S @ W`` with ``S[step * batch + item, neuron]`` the number of spikes there."""
-    row = step * batch + item
+def _union(span: tuple[int, int] | None, lo: int, hi: int) -> tuple[int, int]:
+    return (lo, hi) if span is None else (min(span[0], lo), max(span[1], hi))
+
+
+def _product(row: np.ndarray, neuron: np.ndarray, rows: int, block: Dense) -> torch.Tensor:
+    """``S @ W`` with ``S[row, neuron]`` the number of spikes there."""
     order = np.lexsort((neuron, row))
     row, col = row[order], neuron[order]
     crow = np.searchsorted(row, np.arange(rows + 1), side="left")

@@ -284,6 +284,8 @@ class TorchSimulation(HostedSimulation):
         lead = state.ring - self._net.ring + 1
         bounds, tensors = {}, {}
         for name, (steps, item, neurons) in events.items():
+            if name in drive.whole:
+                continue
             bounds[name] = np.searchsorted(steps, np.arange(first, first + n_steps + lead), side="left")
             tensors[name] = (
                 torch.as_tensor(steps, device=dev),
@@ -307,7 +309,7 @@ class TorchSimulation(HostedSimulation):
             for pop, var in recorded:
                 lo, hi = self._offsets[pop]
                 volts[(pop, var)].append(state.variable(var)[:, lo:hi].clone())
-        drive.schedule_tail(state)
+        drive.finish(state)
         state.synaptic_events += drive.synaptic_events
         out = {}
         for name, parts in kept.items():
