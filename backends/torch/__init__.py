@@ -6,6 +6,9 @@ advanced step by step on a CPU or a CUDA GPU, with the reference backend's seman
 (docs/semantics.md): exact subthreshold integration, the same cell types (with the spike
 lockout), every connector, per-connection delays, Poisson sources drawn with the backend
 kit's seeding, array sources. Inference only: plasticity is off (see :mod:`.capabilities`).
+Source spikes are known before a run, so what they deliver is computed ahead of the step
+loop a chunk of steps at a time (:mod:`.drive`); spikes of neurons go through a delay ring
+(:mod:`.build`).
 
 Options of ``nv.compile(..., backend="torch", ...)``:
 
@@ -18,7 +21,9 @@ Options of ``nv.compile(..., backend="torch", ...)``:
   membrane to about 1e-6 relative (some 1e-5 mV): spikes near threshold may move by a step
   or appear/disappear, so counts agree statistically, not spike for spike.
 - ``batch_size``: items simulated at once (default 256); larger batches amortise the
-  per-step overhead and need ``(2 * ring + 8) * batch_size * neurons`` values of memory.
+  per-step overhead and need ``(2 * ring + 8) * batch_size * neurons`` values of memory,
+  plus the source drive's window of coming steps (about 64 MiB; more when the longest
+  source delay alone needs more); both are checked against the memory limit before a batch.
 - ``threads``: torch's intra-op CPU threads while this simulation runs (default 1: the
   per-step tensors are small, and on a shared or busy CPU more threads mostly wait for each
   other); ``None`` leaves torch's setting.
