@@ -89,7 +89,7 @@ def main() -> None:
             )
             print(
                 f"{name:22s} {hw:11s} fits={'yes' if d['fits'] else 'no ':3s} chips={d['chips']:3d} cores={d['cores']:4d}"
-                f" energy={energy.joules_per_inference:.4g} J  violations={len(d['violations'])}"
+                f" energy={'not estimated' if energy.joules_per_inference is None else f'{energy.joules_per_inference:.4g} J'}  violations={len(d['violations'])}"
                 f" {sorted({v['limit'] for v in d['violations']})}"
             )
     if args.json:

@@ -174,7 +174,7 @@ class EnergyReport:
     """Estimated energy per inference on one target, with its breakdown (joules)."""
 
     hardware: str
-    joules_per_inference: float
+    joules_per_inference: float | None
     breakdown: dict[str, float]
     seconds_per_inference: float
     chips: int
@@ -203,8 +203,13 @@ class EnergyReport:
 
     def table(self) -> str:
         """A human-readable breakdown."""
-        lines = [f"{self.hardware}: {self.joules_per_inference:.6g} J per inference "
-                 f"({self.seconds_per_inference:.6g} s on chip, {self.chips} chip(s))"]
+        if self.joules_per_inference is None:
+            total = "energy not estimated (no term has a published figure)"
+        elif self.not_estimated:
+            total = f"at least {self.joules_per_inference:.6g} J per inference (terms below not estimated)"
+        else:
+            total = f"{self.joules_per_inference:.6g} J per inference"
+        lines = [f"{self.hardware}: {total} ({self.seconds_per_inference:.6g} s on chip, {self.chips} chip(s))"]
         for key, joules in self.breakdown.items():
             share = 100 * joules / self.joules_per_inference if self.joules_per_inference else 0.0
             lines.append(f"  {key:<22} {joules:.6g} J  ({share:.1f}%)")
@@ -331,7 +336,8 @@ def estimate_energy(
                "reason": "the run did not record CPU energy" if ok else reason}
     return EnergyReport(
         hardware=spec.name,
-        joules_per_inference=float(sum(breakdown.values())),
+        # Nothing with a published figure: no total rather than a misleading 0 J.
+        joules_per_inference=float(sum(breakdown.values())) if breakdown else None,
         breakdown=breakdown,
         seconds_per_inference=seconds,
         chips=chips,
