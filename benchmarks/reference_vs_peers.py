@@ -321,8 +321,8 @@ def run_locsnet_torch(case: tuple[Any, ...], threads: int) -> dict:
 #: Sizes: (full, --quick).
 SIZES = {
     "dc": ({"images": 10}, {"images": 1}),
-    "stdp": ({"n_exc": 8000, "n_input": 2000, "duration": 2000.0}, {"n_exc": 200, "n_input": 50, "duration": 100.0}),
-    "locsnet": ({"places": 3072, "queries": 20}, {"places": 20, "queries": 3}),
+    "stdp": ({"n_exc": 4000, "n_input": 1000, "duration": 1000.0}, {"n_exc": 200, "n_input": 50, "duration": 100.0}),
+    "locsnet": ({"places": 3072, "queries": 5}, {"places": 20, "queries": 3}),
 }
 
 #: Why a simulator does not run a network.
@@ -368,6 +368,7 @@ def compare(networks: list[str], *, quick: bool, seed: int, threads: tuple[int, 
             "not_run": {sim: why for (net_name, sim), why in NOT_RUN.items() if net_name == name},
             "same_work": same_work(name, runs),
         }
+        print_table({name: out[name]})
     return out
 
 
@@ -433,7 +434,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the comparison; print the table; write JSON and PNG; exit 1 when the runs did not do the same work."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="tiny sizes, every simulator, check equal work")
-    parser.add_argument("--networks", default="dc,stdp,locsnet")
+    parser.add_argument("--networks", default="stdp,dc,locsnet")
     parser.add_argument("--threads", default="1,2", help="thread counts of the peers (comma-separated)")
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--json", type=Path, default=None)
@@ -446,7 +447,6 @@ def main(argv: list[str] | None = None) -> int:
     threads = tuple(int(t) for t in args.threads.split(","))
     results = compare(networks, quick=args.quick, seed=args.seed, threads=threads)
     print(f"machine: {platform.machine()}, {platform.processor() or '?'}; quick={args.quick}")
-    print_table(results)
     payload = {"machine": platform.machine(), "quick": args.quick, "networks": results}
     if args.json:
         tmp = args.json.with_suffix(".tmp")
