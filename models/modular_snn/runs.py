@@ -58,9 +58,9 @@ from typing import Any
 import numpy as np
 
 import neurovpr as nv
-from neurovpr.apps.rundir import damaged_part
+from neurovpr.apps.rundir import RunDir, damaged_part
 from neurovpr.data.ground_truth import GroundTruth
-from neurovpr.fileio import atomic_write_bytes, atomic_write_text
+from neurovpr.fileio import atomic_write_bytes
 
 from .inference import (
     SCORES,
@@ -329,7 +329,7 @@ def train_run(
     if not chosen or not chosen <= set(range(int(members))):
         raise nv.ValidationError(f"only_members {sorted(chosen)} must name members among 0..{int(members) - 1}.")
     existing = _modules_dir(run_dir).is_dir() and any(_modules_dir(run_dir).iterdir())
-    if (existing or (run_dir / "run.json").exists()) and not resume:
+    if (existing or RunDir(run_dir).info_file.exists()) and not resume:
         raise nv.ValidationError(f"{run_dir} already holds a run; pass --resume to continue it or choose another --out.")
     plan = make_plan(n_ref, settings.module_size, members, seed, place_order, n_calibration)
     cfg = json.dumps(settings.as_dict(), sort_keys=True)
@@ -418,7 +418,7 @@ def train_run(
     summary["run_info"] = run_info
     if remaining:
         return summary
-    atomic_write_text(run_dir / "run.json", json.dumps(run_info, indent=1))
+    RunDir(run_dir).write_info(run_info, indent=1)
     summary.update(complete=True)
     return summary
 
