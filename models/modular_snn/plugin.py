@@ -39,18 +39,9 @@ from neurovpr.resources import check_network
 from .deployment import deployed_network, deployment_form, static_network
 from .network import ModuleParameters
 from .parallel import default_workers
+from .plan import calibration_places, default_calibration_places, describe_plan, split_queries
 from .report import evaluate_similarities, write_plots
-from .runs import (
-    RUN_FORMAT,
-    calibration_places,
-    default_calibration_places,
-    describe_plan,
-    member_similarities,
-    query_responses,
-    reference_digest,
-    split_queries,
-    train_run,
-)
+from .runs import RUN_FORMAT, member_similarities, query_responses, reference_digest, train_run
 from .training import TrainingSettings
 
 __all__ = ["ModularSNNPlugin", "ModularTrainOptions", "ModularEvalOptions", "load_traverse"]
