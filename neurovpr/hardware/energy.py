@@ -43,9 +43,9 @@ from neurovpr.errors import ValidationError
 from neurovpr.fileio import atomic_write_text
 from neurovpr.ir.network import Network
 
+from .check import check_network
 from .hwspec import HwSpec, load_hwspec
 from .partition import Partition
-from .partition import partition as make_partition
 
 __all__ = [
     "ACTIVITY_FILE",
@@ -255,6 +255,7 @@ def estimate_energy(
     network: Network | None = None,
     partition: Partition | None = None,
     seed: int = 0,
+    dt: float | None = None,
 ) -> EnergyReport:
     """Joules per inference on ``hardware`` for the per-inference ``activity``.
 
@@ -269,13 +270,15 @@ def estimate_energy(
         cores it occupies (otherwise all chips of the target) and estimates chip crossings.
     partition
         A partition already computed for ``network`` on ``hardware`` (else computed here).
-    seed
-        Seed of random connectors when the partition is computed here.
+    seed, dt
+        Seed of random connectors and time step (ms; default the hwspec's) when the
+        partition is computed here: the partition :func:`~neurovpr.hardware.check.check_network`
+        makes for the fit verdict with the same ``dt`` and ``seed``.
     """
     spec = hardware if isinstance(hardware, HwSpec) else load_hwspec(hardware)
     energy = spec.energy
     if network is not None and partition is None:
-        partition = make_partition(network, spec, seed=seed)
+        partition = check_network(network, spec, seed=seed, dt=dt).partition
     steps = float(activity["steps"])
     dt = activity.get("dt_ms")
     hw_steps = steps * dt / spec.timing.time_step_ms if dt is not None else steps
