@@ -8,14 +8,14 @@ the cache instead of compiling it again.
 
 This script runs, in fresh processes, (1) the first simulation of a small network
 (``--child``: compile and run it, then print numba's cache hits and misses of every
-reference kernel) and (2) a small ``neurovpr demo`` (the CLI: Modular SNN training and
-evaluation), each twice with ``NUMBA_CACHE_DIR`` pointing at one new empty folder: the
+reference kernel) and (2) the demo tour at its tiny size (``neurovpr demo --size tiny``: every
+backend, fit checks, LoCS-Net and Modular SNN training and evaluation), each twice with ``NUMBA_CACHE_DIR`` pointing at one new empty folder: the
 first run is cold (every kernel compiled and written to the cache), the second warm
 (every kernel read back). The printed ratio is cold / warm wall time in the same run.
 
 Usage (from the repository root)::
 
-    python benchmarks/numba_cold_start.py [--demo-args "--places 8 --module-size 4 --members 1 --epochs 1"] [--json OUT]
+    python benchmarks/numba_cold_start.py [--demo-args "--size tiny --workers 1"] [--json OUT]
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-DEMO_ARGS = "--places 8 --module-size 4 --members 1 --epochs 1 --workers 1"
+DEMO_ARGS = "--size tiny --workers 1"
 
 
 def child() -> None:
