@@ -8,10 +8,11 @@ the cache instead of compiling it again.
 
 This script runs, in fresh processes, (1) the first simulation of a small network
 (``--child``: compile and run it, then print numba's cache hits and misses of every
-reference kernel) and (2) the demo tour at its tiny size (``neurovpr demo --size tiny``: every
-backend, fit checks, LoCS-Net and Modular SNN training and evaluation), each twice with
-``NUMBA_CACHE_DIR`` pointing at one new empty folder: the first run is cold (every kernel compiled and written to the cache), the second warm
-(every kernel read back). The printed ratio is cold / warm wall time in the same run.
+reference kernel) and (2) the demo tour at its tiny size (``neurovpr demo --size tiny``:
+every backend, fit checks, LoCS-Net and Modular SNN training and evaluation), each twice
+with ``NUMBA_CACHE_DIR`` pointing at one new empty folder: the first run is cold (every
+kernel compiled and written to the cache), the second warm (every kernel read back). The
+printed ratio is cold / warm wall time in the same run.
 
 Usage (from the repository root)::
 
