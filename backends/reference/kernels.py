@@ -126,16 +126,41 @@ VAR_CODES = {
 
 NEVER = np.int64(2**62)
 
-# The arrays :func:`emit` works on, bundled by role (numba passes a tuple of arrays as
-# one argument; ``emit`` is inlined, so the bundles cost nothing at run time).
+# The arrays the kernels work on, bundled by role (numba passes a tuple of arrays as one
+# argument; the simulation builds them, see :meth:`.simulation.ReferenceSimulation._run`).
+#: Neurons: groups of identical parameters (``G_*`` columns), the parameter table (``C_*``
+#: columns), and the state: membrane, synaptic state ``isyn`` (``ie``, ``ii`` are its rows),
+#: adaptive threshold, Ca2+ current, refractory counters, spike flags (one byte per neuron,
+#: all 0 between steps; ``flag_words`` is the same memory as 64-bit words) and spike counts.
+Neurons = namedtuple("Neurons", "groups params v isyn ie ii theta ica refr flag flag_words counts")
 #: The spike record: which neurons are recorded, the spike steps and neurons, the count.
 SpikeRecord = namedtuple("SpikeRecord", "mask t i n")
 #: Static delivery (:func:`.delivery.static_delivery`): segments per neuron, their synapses and neuron blocks.
 StaticTables = namedtuple("StaticTables", "seg_ptr seg_start seg post w blk_ptr blk")
-#: The ring of arrivals: static sums and their marks, and the plastic events per slot.
-Arrivals = namedtuple("Arrivals", "buf dirty row_any row_range ev ev_n")
+#: The ring of arrivals: static sums, their block marks (also as 64-bit words), the rows
+#: holding marks and the neuron range convolutions reached per row; the plastic events per slot.
+Arrivals = namedtuple("Arrivals", "buf dirty dirty_words row_any row_range ev ev_n")
 #: Structured convolutions (:mod:`.convolution`): per-neuron entries, parameters, transposed kernels.
 ConvTables = namedtuple("ConvTables", "index par w")
+#: Plastic synapses: per neuron its outgoing segments; per segment its first synapse, delay
+#: and projection; per synapse its target and weight; per neuron its incoming synapses (their
+#: positions, segments, and the one rule they all follow or -1); per projection its receptor.
+PlasticTables = namedtuple(
+    "PlasticTables", "row_seg_ptr seg_start seg_delay seg_proj p_post p_w post_ptr post_syn post_seg post_rule proj_inh"
+)
+#: STDP: the rule table (``R_*`` columns) and presynaptic decay table; the presynaptic trace
+#: per segment and its last arrival; the postsynaptic traces (per projection their range,
+#: per neuron its traces) and their decays; scratch for one neuron's presynaptic traces.
+Traces = namedtuple(
+    "Traces",
+    "rules pre_table seg_xpre seg_last tr_lo tr_hi tr_shift post_tr_ptr post_tr_idx trace_proj post_decay1 post_decay2 "
+    "xpost1 xpost2 x_pre",
+)
+#: Spike sources: Poisson neurons (index, log(1 - p), next spike step, window) and their
+#: generator; the spike array events (steps, neurons) and the next one to emit.
+Sources = namedtuple("Sources", "pois_idx pois_logq pois_next pois_start pois_end arr_step arr_neuron arr_ptr rng")
+#: Recorded state variables: neuron, variable code (``VAR_*``), and the output rows per step.
+VarRecord = namedtuple("VarRecord", "idx code out")
 
 # Indices of the activity counters.
 ST_STEPS, ST_NEURON_UPDATES, ST_SPIKES, ST_SYN_EVENTS, ST_PLASTIC_UPDATES = range(5)
@@ -185,12 +210,14 @@ def flush(x: float) -> float:
 
 
 @njit(cache=True, _nrt=False)
-def update_curr(lo, hi, flags, params, v, ie, ii, ica, refr, flag):  # fmt: skip
+def update_curr(lo, hi, flags, neurons):
     """Advance the current-based neurons ``lo:hi`` with the parameters of neuron ``lo``; return how many spiked.
 
     One loop per set of non-zero terms (Ca2+ and inhibitory currents, inhibitory only,
     neither), each free of branches so that it compiles to vector instructions.
     """
+    params, v, ie, ii = neurons.params, neurons.v, neurons.ie, neurons.ii
+    ica, refr, flag = neurons.ica, neurons.refr, neurons.flag
     ulo, uhi = np.uint64(lo), np.uint64(hi)  # unsigned indices: no negative-index wrap, so the loops vectorise
     rest, p22, p21e, p11e = params[lo, C_V_REST], params[lo, C_P22], params[lo, C_P21E], params[lo, C_P11E]
     p21i, p11i, p21ca, p11ca = params[lo, C_P21I], params[lo, C_P11I], params[lo, C_P21CA], params[lo, C_P11CA]
@@ -233,8 +260,10 @@ def update_curr(lo, hi, flags, params, v, ie, ii, ica, refr, flag):  # fmt: skip
 
 
 @njit(cache=True, inline="always", _nrt=False)
-def update_cond(lo, hi, flags, params, dt, plastic_on, v, ie, ii, theta, refr, flag):  # fmt: skip
+def update_cond(lo, hi, flags, dt, plastic_on, neurons):
     """Advance the conductance-based neurons ``lo:hi`` with the parameters of neuron ``lo``; return how many spiked."""
+    params, v, ie, ii = neurons.params, neurons.v, neurons.ie, neurons.ii
+    theta, refr, flag = neurons.theta, neurons.refr, neurons.flag
     rest, p22, i_off, p20 = params[lo, C_V_REST], params[lo, C_P22], params[lo, C_I_OFFSET], params[lo, C_P20]
     fe, fi, gl, cm = params[lo, C_FE], params[lo, C_FI], params[lo, C_GL], params[lo, C_CM]
     e_rev_e, e_rev_i, v_th = params[lo, C_E_REV_E], params[lo, C_E_REV_I], params[lo, C_V_THRESH]
@@ -268,7 +297,7 @@ def update_cond(lo, hi, flags, params, dt, plastic_on, v, ie, ii, theta, refr, f
 
 # -- plastic synapses ---------------------------------------------------------
 @njit(cache=True, inline="always", _nrt=False)
-def table_decay(x, steps, table, r, dt, tau):  # fmt: skip
+def table_decay(x, steps, table, r, dt, tau):
     """``x * exp(-steps * dt / tau)`` with the factor from rule ``r``'s table when it holds it.
 
     Past the table, a row ending in 0 has decayed to exactly 0 (``exp`` is monotone,
@@ -285,8 +314,7 @@ def table_decay(x, steps, table, r, dt, tau):  # fmt: skip
 
 
 @njit(cache=True, _nrt=False)
-def arrive(g, nxt, j, dt, plastic_on, seg_start, seg_proj, p_post, p_w, seg_xpre, seg_last, rules, pre_table,
-           tr_shift, proj_inh, xpost1, isyn):  # fmt: skip
+def arrive(g, nxt, j, dt, plastic_on, syn, stdp, isyn):
     """Spikes arriving at segment ``g`` at step ``j``: depress, deliver, advance the pre trace.
 
     Each synapse is first depressed by the postsynaptic trace (its value at time ``j``)
@@ -294,8 +322,11 @@ def arrive(g, nxt, j, dt, plastic_on, seg_start, seg_proj, p_post, p_w, seg_xpre
     (inhibitory). Returns the number of weight updates. ``nxt`` is the first synapse of
     the segment that arrives next: its weights and targets are prefetched meanwhile, a
     line every 8 synapses (segments lie apart, so the hardware prefetcher would start
-    on each one late).
+    on each one late). ``syn`` and ``stdp`` are a :class:`PlasticTables` and :class:`Traces`.
     """
+    seg_start, seg_proj, p_post, p_w, proj_inh = syn.seg_start, syn.seg_proj, syn.p_post, syn.p_w, syn.proj_inh
+    seg_xpre, seg_last, rules, pre_table, tr_shift = stdp.seg_xpre, stdp.seg_last, stdp.rules, stdp.pre_table, stdp.tr_shift
+    xpost1 = stdp.xpost1
     r = seg_proj[g]
     rk = rules[r, R_KIND]
     shift = tr_shift[r]  # trace of post neuron i: i + shift (>= 0)
@@ -346,8 +377,7 @@ def arrive(g, nxt, j, dt, plastic_on, seg_start, seg_proj, p_post, p_w, seg_xpre
 
 
 @njit(cache=True, _nrt=False)
-def potentiate(i, t, dt, post_ptr, post_syn, post_seg, post_rule, seg_proj, seg_xpre, seg_last, p_w, rules,
-               pre_table, tr_shift, xpost2, x_pre):  # fmt: skip
+def potentiate(i, t, dt, syn, stdp):
     """Potentiate the plastic synapses onto neuron ``i``, which spikes at step ``t``; return the updates.
 
     The presynaptic traces are gathered first (into ``x_pre``, one per incoming synapse)
@@ -355,8 +385,12 @@ def potentiate(i, t, dt, post_ptr, post_syn, post_seg, post_rule, seg_proj, seg_
     wait on one another. When all the synapses follow one rule (``post_rule[i] >= 0``)
     whose decay table ends in 0, the gathering has no branches (a look-up clamped to
     the table's end is :func:`table_decay`); when that rule is additive, neither has
-    the update loop.
+    the update loop. ``syn`` and ``stdp`` are a :class:`PlasticTables` and :class:`Traces`.
     """
+    post_ptr, post_syn, post_seg, post_rule = syn.post_ptr, syn.post_syn, syn.post_seg, syn.post_rule
+    seg_proj, p_w = syn.seg_proj, syn.p_w
+    seg_xpre, seg_last, rules, pre_table = stdp.seg_xpre, stdp.seg_last, stdp.rules, stdp.pre_table
+    tr_shift, xpost2, x_pre = stdp.tr_shift, stdp.xpost2, stdp.x_pre
     lo = post_ptr[i]
     n = post_ptr[i + 1] - lo
     if n == 0:
@@ -422,8 +456,10 @@ def potentiate(i, t, dt, post_ptr, post_syn, post_seg, post_rule, seg_proj, seg_
 
 
 @njit(cache=True, inline="always", _nrt=False)
-def post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2):  # fmt: skip
+def post_traces(i, stdp):
     """Update the postsynaptic traces of neuron ``i`` for its spike (traces are at its time already)."""
+    post_tr_ptr, post_tr_idx, trace_proj, rules = stdp.post_tr_ptr, stdp.post_tr_idx, stdp.trace_proj, stdp.rules
+    xpost1, xpost2 = stdp.xpost1, stdp.xpost2
     for q in range(post_tr_ptr[i], post_tr_ptr[i + 1]):
         tr = post_tr_idx[q]
         if rules[trace_proj[tr], R_KIND] == RULE_DIEHL_COOK:
@@ -434,12 +470,14 @@ def post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2):
 
 
 @njit(cache=True, inline="always", _nrt=False)
-def decay_post_traces(rules, tr_lo, tr_hi, post_decay1, post_decay2, xpost1, xpost2):  # fmt: skip
+def decay_post_traces(stdp):
     """Advance every postsynaptic trace by one step.
 
     The second trace is only ever non-zero under the Diehl & Cook rule, so only those
     projections decay it.
     """
+    rules, tr_lo, tr_hi, xpost1, xpost2 = stdp.rules, stdp.tr_lo, stdp.tr_hi, stdp.xpost1, stdp.xpost2
+    post_decay1, post_decay2 = stdp.post_decay1, stdp.post_decay2
     for r in range(tr_lo.size):
         lo, hi = tr_lo[r], tr_hi[r]
         if hi == lo:
@@ -455,7 +493,7 @@ def decay_post_traces(rules, tr_lo, tr_hi, post_decay1, post_decay2, xpost1, xpo
 
 # -- the step loop ------------------------------------------------------------
 @njit(cache=True, inline="always", _nrt=False)
-def later_slot(at, delay, ring):  # fmt: skip
+def later_slot(at, delay, ring):
     """The ring slot ``delay`` steps after slot ``at``: ``(at + delay) % ring`` without a division.
 
     A delay is shorter than the ring, so one subtraction is enough.
@@ -465,14 +503,16 @@ def later_slot(at, delay, ring):  # fmt: skip
 
 
 @njit(cache=True, inline="always", _nrt=False)
-def convolve(k, at, cv_index, cv_par, cv_w, buf, row_any, row_range, ring, width):  # fmt: skip
-    """Schedule a spike through the structured convolution entry at ``cv_index[k:k + 3]``; return the synapses reached.
+def convolve(k, at, width, conv, arrivals):
+    """Schedule a spike through the structured convolution entry at ``conv.index[k:k + 3]``; return the synapses reached.
 
     For every output position whose receptive field holds the neuron, all output
     channels receive the kernel's weights for that field position (see
     :mod:`.convolution`, whose ``geometry`` packs the neuron's position and reach). The
     buffer row's range of touched neurons grows to the whole output population.
     """
+    cv_index, cv_par, cv_w = conv
+    buf, row_any, row_range, ring = arrivals.buf, arrivals.row_any, arrivals.row_range, arrivals.ev_n.size
     p, a, b = cv_index[k], cv_index[k + 1], cv_index[k + 2]
     n = 0
     o, ow, kh, kw = cv_par[p, CV_O], cv_par[p, CV_OW], cv_par[p, CV_KH], cv_par[p, CV_KW]
@@ -496,7 +536,7 @@ def convolve(k, at, cv_index, cv_par, cv_w, buf, row_any, row_range, ring, width
 
 
 @njit(cache=True, inline="always", _nrt=False)
-def emit(i, stamp, at, width, counts, stats, record, static, arrivals, conv, row_seg_ptr, seg_delay):
+def emit(i, stamp, at, width, counts, stats, record, static, arrivals, conv, syn):
     """Record the spike of neuron ``i`` at step ``stamp`` and schedule its arrivals.
 
     Each static segment (one delay and receptor) adds its weights into one row of the
@@ -504,13 +544,14 @@ def emit(i, stamp, at, width, counts, stats, record, static, arrivals, conv, row
     each) and marks the neuron blocks it touches in ``dirty`` (``row_any`` says that a
     row has marks); each structured convolution the neuron feeds adds through
     :func:`convolve`. ``at`` is ``stamp``'s ring slot (``stamp % ring``), so that the
-    slot of an arrival needs no division. ``record``, ``static``, ``arrivals`` and ``conv``
-    are a :class:`SpikeRecord`, :class:`StaticTables`, :class:`Arrivals` and :class:`ConvTables`.
+    slot of an arrival needs no division. ``record``, ``static``, ``arrivals``, ``conv`` and
+    ``syn`` are a :class:`SpikeRecord`, :class:`StaticTables`, :class:`Arrivals`,
+    :class:`ConvTables` and :class:`PlasticTables`.
     """
     rec_mask, rec_t, rec_i, rec_n = record
     d_seg_ptr, d_seg_start, d_seg, d_post, d_w, d_blk_ptr, d_blk = static
-    buf, dirty, row_any, row_range, ev, ev_n = arrivals
-    cv_index, cv_par, cv_w = conv
+    buf, dirty, row_any, ev, ev_n = arrivals.buf, arrivals.dirty, arrivals.row_any, arrivals.ev, arrivals.ev_n
+    cv_index = conv.index
     counts[i] += 1
     stats[ST_SPIKES] += 1
     if rec_mask[i]:
@@ -538,15 +579,15 @@ def emit(i, stamp, at, width, counts, stats, record, static, arrivals, conv, row
     stats[ST_SYN_EVENTS] += d_seg_start[d_seg_ptr[i + 1]] - d_seg_start[d_seg_ptr[i]]
     first = counts.size + 1  # cv_index: pointers, then entries of three values
     for e in range(cv_index[i], cv_index[i + 1]):
-        stats[ST_SYN_EVENTS] += convolve(first + 3 * e, at, cv_index, cv_par, cv_w, buf, row_any, row_range, ring, width)
-    for g in range(row_seg_ptr[i], row_seg_ptr[i + 1]):
-        due = later_slot(at, seg_delay[g], ring)
+        stats[ST_SYN_EVENTS] += convolve(first + 3 * e, at, width, conv, arrivals)
+    for g in range(syn.row_seg_ptr[i], syn.row_seg_ptr[i + 1]):
+        due = later_slot(at, syn.seg_delay[g], ring)
         ev[due, ev_n[due]] = g
         ev_n[due] += 1
 
 
 @njit(cache=True, inline="always", _nrt=False)
-def add_and_clear(buf, base, isyn, r, lo, hi):  # fmt: skip
+def add_and_clear(buf, base, isyn, r, lo, hi):
     """Add buffer entries ``base + lo .. base + hi`` to ``isyn[r, lo:hi]`` and set them to 0.
 
     An entry that is exactly 0 leaves its synaptic state as it is (adding +0.0 would
@@ -560,13 +601,16 @@ def add_and_clear(buf, base, isyn, r, lo, hi):  # fmt: skip
 
 
 @njit(cache=True, inline="always", _nrt=False)
-def deliver_static(slot, ring, n, buf, dirty, dirty_words, row_any, isyn, row_range):  # fmt: skip
+def deliver_static(slot, n, arrivals, isyn):
     """Add the static arrivals of ring slot ``slot`` to ``isyn`` and clear them.
 
     First the row's range of neurons reached by structured convolutions, then the
     marked blocks (entries the range has cleared add nothing), each with
-    :func:`add_and_clear`.
+    :func:`add_and_clear`. ``arrivals`` is an :class:`Arrivals`.
     """
+    buf, dirty, dirty_words = arrivals.buf, arrivals.dirty, arrivals.dirty_words
+    row_any, row_range = arrivals.row_any, arrivals.row_range
+    ring = arrivals.ev_n.size
     width = buf.size // row_any.size
     n_blocks = dirty.size // row_any.size
     block = width // n_blocks
@@ -591,31 +635,26 @@ def deliver_static(slot, ring, n, buf, dirty, dirty_words, row_any, isyn, row_ra
 
 @njit(cache=True, _nrt=False)
 def run_steps(
-    j0, j1, dt, plastic_on, groups, n_updated, params, v, isyn, ie, ii, theta, ica, refr, flag, flag_words, counts,
-    buf, dirty, dirty_words, row_any, d_seg_ptr, d_seg_start, d_seg, d_post, d_w, d_blk_ptr, d_blk,
-    row_seg_ptr, seg_start, seg_delay, seg_proj, p_post, p_w, seg_xpre, seg_last,
-    post_ptr, post_syn, post_seg, post_rule, proj_inh, tr_lo, tr_hi, tr_shift, post_tr_ptr, post_tr_idx, trace_proj,
-    rules, pre_table, post_decay1, post_decay2, xpost1, xpost2, x_pre, ev, ev_n,
-    pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng,
-    rec_mask, rec_t, rec_i, rec_n, headroom, var_idx, var_code, var_out, stats, cv_index, cv_par, cv_w,
-    row_range,
-):  # fmt: skip
+    j0, j1, dt, plastic_on, headroom, n_updated, neurons, record, static, arrivals, conv, syn, stdp, sources, var, stats
+):
     """Advance from step ``j0`` to ``j1`` (exclusive); return the step reached.
 
-    ``headroom`` is the most spikes one step can record; the loop stops before a
-    step that could overflow the record buffers. ``ie`` and ``ii`` are the rows of
-    ``isyn`` (excitatory and inhibitory synaptic state). ``flag`` holds one byte per neuron
-    (all 0 between steps), ``flag_words`` the same memory as 64-bit words; ``x_pre``
-    is scratch space for the largest number of plastic synapses onto one neuron.
+    ``headroom`` is the most spikes one step can record; the loop stops before a step
+    that could overflow the record buffers. ``n_updated`` is the number of neurons the
+    groups update (sources excluded). The bundles are a :class:`Neurons`,
+    :class:`SpikeRecord`, :class:`StaticTables`, :class:`Arrivals`, :class:`ConvTables`,
+    :class:`PlasticTables`, :class:`Traces`, :class:`Sources` and :class:`VarRecord`;
+    ``stats`` holds the activity counters (``ST_*``).
     """
+    groups, params, v, isyn, ie, ii = neurons.groups, neurons.params, neurons.v, neurons.isyn, neurons.ie, neurons.ii
+    theta, ica, refr, flag, flag_words = neurons.theta, neurons.ica, neurons.refr, neurons.flag, neurons.flag_words
+    counts = neurons.counts
+    pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng = sources
+    seg_start, ev, ev_n, rec_n = syn.seg_start, arrivals.ev, arrivals.ev_n, record.n
     ring = ev_n.size
     n = v.size
-    cap = rec_t.size
-    width = buf.size // row_any.size
-    record = SpikeRecord(rec_mask, rec_t, rec_i, rec_n)
-    static = StaticTables(d_seg_ptr, d_seg_start, d_seg, d_post, d_w, d_blk_ptr, d_blk)
-    arrivals = Arrivals(buf, dirty, row_any, row_range, ev, ev_n)
-    conv = ConvTables(cv_index, cv_par, cv_w)
+    cap = record.t.size
+    width = arrivals.buf.size // arrivals.row_any.size
     for j in range(j0, j1):
         if rec_n[0] + headroom > cap:
             return j
@@ -626,7 +665,7 @@ def run_steps(
             if pois_next[k] == j:
                 i = pois_idx[k]
                 if pois_start[k] <= j < pois_end[k]:
-                    emit(i, j, slot, width, counts, stats, record, static, arrivals, conv, row_seg_ptr, seg_delay)
+                    emit(i, j, slot, width, counts, stats, record, static, arrivals, conv, syn)
                 g = geometric_gap(rng, pois_logq[k])
                 pois_next[k] = NEVER if g == NEVER else j + 1 + g
             elif pois_next[k] < j:  # window change or redraw in the past: draw forward
@@ -634,30 +673,27 @@ def run_steps(
                 pois_next[k] = NEVER if g == NEVER else j + g
         while arr_ptr[0] < arr_step.size and arr_step[arr_ptr[0]] <= j:
             if arr_step[arr_ptr[0]] == j:
-                src = arr_neuron[arr_ptr[0]]
-                emit(src, j, slot, width, counts, stats, record, static, arrivals, conv, row_seg_ptr, seg_delay)
+                emit(arr_neuron[arr_ptr[0]], j, slot, width, counts, stats, record, static, arrivals, conv, syn)
             arr_ptr[0] += 1
         # 2. arrivals at plastic synapses (post traces hold their value at time j)
         for e in range(ev_n[slot]):
             g = ev[slot, e]
             nxt = seg_start[ev[slot, e + 1] if e + 1 < ev_n[slot] else g]
-            stats[ST_PLASTIC_UPDATES] += arrive(g, nxt, j, dt, plastic_on, seg_start, seg_proj, p_post, p_w,
-                                                seg_xpre, seg_last, rules, pre_table, tr_shift, proj_inh, xpost1,
-                                                isyn)  # fmt: skip
+            stats[ST_PLASTIC_UPDATES] += arrive(g, nxt, j, dt, plastic_on, syn, stdp, isyn)
             stats[ST_SYN_EVENTS] += seg_start[g + 1] - seg_start[g]
         ev_n[slot] = 0
         # postsynaptic traces advance to the end of the step
-        decay_post_traces(rules, tr_lo, tr_hi, post_decay1, post_decay2, xpost1, xpost2)
+        decay_post_traces(stdp)
         # static arrivals
-        deliver_static(slot, ring, n, buf, dirty, dirty_words, row_any, isyn, row_range)
+        deliver_static(slot, n, arrivals, isyn)
         # 3. neurons, group by group; then each group's spikes in increasing index
         stats[ST_NEURON_UPDATES] += n_updated
         for grp in range(groups.shape[0]):
             lo, hi, flags = groups[grp, G_LO], groups[grp, G_HI], groups[grp, G_FLAGS]
             if groups[grp, G_KIND] == KIND_CURR:
-                n_spikes = update_curr(lo, hi, flags, params, v, ie, ii, ica, refr, flag)
+                n_spikes = update_curr(lo, hi, flags, neurons)
             else:
-                n_spikes = update_cond(lo, hi, flags, params, dt, plastic_on, v, ie, ii, theta, refr, flag)
+                n_spikes = update_cond(lo, hi, flags, dt, plastic_on, neurons)
             word = lo >> 3
             while n_spikes > 0:
                 if flag_words[word] != 0:
@@ -670,19 +706,17 @@ def run_steps(
                             ica[i] += params[lo, C_I_ALPHA]
                             if plastic_on:
                                 theta[i] += params[lo, C_THETA_PLUS]
-                                stats[ST_PLASTIC_UPDATES] += potentiate(
-                                    i, j + 1, dt, post_ptr, post_syn, post_seg, post_rule, seg_proj, seg_xpre, seg_last,
-                                    p_w, rules, pre_table, tr_shift, xpost2, x_pre,
-                                )  # fmt: skip
-                            post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2)
-                            emit(i, j + 1, after, width, counts, stats, record, static, arrivals, conv, row_seg_ptr, seg_delay)
+                                stats[ST_PLASTIC_UPDATES] += potentiate(i, j + 1, dt, syn, stdp)
+                            post_traces(i, stdp)
+                            emit(i, j + 1, after, width, counts, stats, record, static, arrivals, conv, syn)
                 word += 1
         # 4. state recording
-        if var_idx.size:
+        if var.idx.size:
             row = j - j0
-            for r in range(var_idx.size):
-                i = var_idx[r]
-                c = var_code[r]
+            var_out = var.out
+            for r in range(var.idx.size):
+                i = var.idx[r]
+                c = var.code[r]
                 if c == VAR_V:
                     var_out[row, r] = v[i]
                 elif c == VAR_EXC:
