@@ -67,6 +67,18 @@ def convolve(k, at, width, conv, arrivals):
 
 
 @njit(inline="always", _nrt=False)
+def record_spike(i, stamp, counts, stats, record):
+    """Count the spike of neuron ``i`` at step ``stamp`` and, when ``i`` is recorded, add it to ``record`` (a ``SpikeRecord``)."""
+    counts[i] += 1
+    stats[ST_SPIKES] += 1
+    if record.mask[i]:
+        n = record.n[0]
+        record.t[n] = stamp
+        record.i[n] = i
+        record.n[0] = n + 1
+
+
+@njit(inline="always", _nrt=False)
 def emit(i, stamp, at, width, counts, stats, record, static, arrivals, conv, syn):
     """Record the spike of neuron ``i`` at step ``stamp`` and schedule its arrivals.
 
@@ -79,17 +91,10 @@ def emit(i, stamp, at, width, counts, stats, record, static, arrivals, conv, syn
     ``syn`` are a ``SpikeRecord``, ``StaticTables``, ``Arrivals``,
     ``ConvTables`` and ``PlasticTables`` (:mod:`.kernel_layout`).
     """
-    rec_mask, rec_t, rec_i, rec_n = record
+    record_spike(i, stamp, counts, stats, record)
     d_seg_ptr, d_seg_start, d_seg, d_post, d_w, d_blk_ptr, d_blk = static
     buf, dirty, row_any, ev, ev_n = arrivals.buf, arrivals.dirty, arrivals.row_any, arrivals.ev, arrivals.ev_n
     cv_index = conv.index
-    counts[i] += 1
-    stats[ST_SPIKES] += 1
-    if rec_mask[i]:
-        n = rec_n[0]
-        rec_t[n] = stamp
-        rec_i[n] = i
-        rec_n[0] = n + 1
     ring = ev_n.size
     n_blocks = width >> BLOCK_SHIFT
     for g in range(d_seg_ptr[i], d_seg_ptr[i + 1]):

@@ -237,7 +237,7 @@ class ReferenceSimulation(Simulation):
                 lay.groups, lay.params, self._v, self._isyn, self._ie, self._ii, self._theta, self._ica, self._refr,
                 self._flag, self._flag_words, self._counts,
             ),
-            kl.SpikeRecord(self._rec_mask, self._rec_t, self._rec_i, self._rec_n),
+            self._spike_record(),
             kl.StaticTables(lay.d_seg_ptr, lay.d_seg_start, lay.d_seg, lay.d_post, lay.d_w, lay.d_blk_ptr, lay.d_blk),
             kl.Arrivals(self._buf, self._dirty, self._dirty_words, self._row_any, self._row_range, self._ev, self._ev_n),
             kl.ConvTables(lay.cv_index, lay.cv_par, lay.cv_w),
@@ -250,12 +250,20 @@ class ReferenceSimulation(Simulation):
                 lay.post_tr_ptr, lay.post_tr_idx, lay.trace_proj, lay.post_decay1, lay.post_decay2, self._xpost1,
                 self._xpost2, self._x_pre,
             ),
-            kl.Sources(
-                self._pois_idx, self._pois_logq, self._pois_next, self._pois_start, self._pois_end, self._arr_step,
-                self._arr_neuron, self._arr_ptr, self._rng,
-            ),
+            self._sources(),
             kl.VarRecord(self._var_idx, self._var_code, var_out),
         )  # fmt: skip
+
+    def _sources(self) -> kl.Sources:
+        """The spike sources' arrays, as the compiled loops take them."""
+        return kl.Sources(
+            self._pois_idx, self._pois_logq, self._pois_next, self._pois_start, self._pois_end, self._arr_step,
+            self._arr_neuron, self._arr_ptr, self._rng,
+        )  # fmt: skip
+
+    def _spike_record(self) -> kl.SpikeRecord:
+        """The spike record buffers, as the compiled loops take them."""
+        return kl.SpikeRecord(self._rec_mask, self._rec_t, self._rec_i, self._rec_n)
 
     def _flush_spikes(self) -> None:
         m = int(self._rec_n[0])
