@@ -12,6 +12,7 @@ from collections import namedtuple
 
 import numpy as np
 
+# Neuron kinds.
 KIND_CURR, KIND_COND, KIND_POISSON, KIND_ARRAY = 0, 1, 2, 3
 
 # Columns of the neuron parameter table.
@@ -62,9 +63,8 @@ RULE_ADDITIVE, RULE_MULTIPLICATIVE, RULE_DIEHL_COOK = 0, 1, 2
 
 
 # Columns of the per-projection parameter table ``cv_par``.
-(CV_PRE0, CV_C, CV_H, CV_W, CV_O, CV_OH, CV_OW, CV_KH, CV_KW, CV_SH, CV_SW, CV_PH, CV_PW, CV_POST0, CV_DELAY, CV_REC,
- CV_WOFF) = range(17)  # fmt: skip
-N_CV_COLS = 17
+CV_PRE0, CV_C, CV_H, CV_W, CV_O, CV_OH, CV_OW, CV_KH, CV_KW = range(9)
+CV_SH, CV_SW, CV_PH, CV_PW, CV_POST0, CV_DELAY, CV_REC, CV_WOFF, N_CV_COLS = range(9, 18)
 
 #: Static arrivals are tracked per block of ``1 << BLOCK_SHIFT`` consecutive neurons.
 BLOCK_SHIFT = 6
