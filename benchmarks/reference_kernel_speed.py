@@ -31,8 +31,8 @@ import neurovpr as nv
 from neurovpr.models.mbsnn import MBSNNParameters, build_network, compile_mbsnn, present
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from mbsnn_realtime import synthetic_input  # noqa: E402
-from reference_vs_brian2 import DT, PRESENT_MS, build_module, poisson_images  # noqa: E402
+from mbsnn_realtime import synthetic_input
+from reference_vs_brian2 import DT, PRESENT_MS, build_module, poisson_images
 
 
 def dc_module(places: int, repeats: int, seed: int) -> dict:
