@@ -42,6 +42,9 @@ import numpy as np
 
 from neurovpr.apps.compare import compare_model
 from neurovpr.apps.compare_plots import plot_comparison
+from neurovpr.apps.options import options_from_namespace
+from neurovpr.apps.requests import TrainRequest
+from neurovpr.apps.rundir import RunDir
 from neurovpr.data.generic import open_traverse, write_generic
 from neurovpr.fileio import atomic_write_text
 from neurovpr.paths import shared_datasets
@@ -70,38 +73,16 @@ def _subset(data: Path, start: int, places: int, queries: int, out: Path) -> Pat
     return write_generic(sub, out, overwrite=True)
 
 
-def _options(flags: list[str]) -> dict[str, Any]:
-    """``--train-args`` flags (``--epochs 20 --input-coding regular --conv-bias``) as the model's option fields.
-
-    A flag followed by a value gives that value (an int or float where it reads as one); a flag alone gives
-    ``True``. The model's options dataclass checks names, types and ranges.
-    """
-    options: dict[str, Any] = {}
-    i = 0
-    while i < len(flags):
-        if not flags[i].startswith("--"):
-            raise SystemExit(f"--train-args: expected an option, got {flags[i]!r}")
-        name, value = flags[i][2:].replace("-", "_"), True
-        if i + 1 < len(flags) and not flags[i + 1].startswith("--"):
-            i += 1
-            value = flags[i]
-            for kind in (int, float):
-                try:
-                    value = kind(flags[i])
-                    break
-                except ValueError:
-                    pass
-        options[name] = value
-        i += 1
-    return options
-
-
 def _train(plugin: Any, data: Path, run: Path, seed: int, extra: list[str]) -> dict[str, Any]:
-    """Train with the model's typed API (its defaults, then ``--train-args``) on the reference backend."""
-    no_progress = "--no-progress" in extra
-    options = _options([flag for flag in extra if flag != "--no-progress"])
+    """Train with the model's typed API on the reference backend; ``--train-args`` parsed by the model's own flags."""
+    parser = argparse.ArgumentParser(prog="--train-args", add_help=False)
+    plugin.add_train_arguments(parser)
+    parser.add_argument("--no-progress", action="store_true")
+    args = parser.parse_args(extra)
+    request = TrainRequest(data=data, out=run, seed=seed, progress=not args.no_progress,
+                           options=options_from_namespace(args, plugin.train_options))  # fmt: skip
     start = time.perf_counter()
-    summary = plugin.train(data=data, out=run, seed=seed, progress=not no_progress, **options)
+    summary = plugin.train(request)
     summary["wall_seconds"] = time.perf_counter() - start
     return summary
 
@@ -145,7 +126,7 @@ def main() -> int:
     run = args.run
     if run is None:
         run = out / "run"
-        if (run / "run.json").is_file():
+        if RunDir(run).finished:
             print(f"reusing the trained run in {run}", file=sys.stderr)
         else:
             info["training"] = _train(plugin, subset, run, args.seed, shlex.split(args.train_args))

@@ -87,9 +87,11 @@ def main() -> None:
                     "joules_per_inference": energy.joules_per_inference,
                 }
             )
+            joules = energy.joules_per_inference
+            shown = "not estimated" if joules is None else f"{joules:.4g} J"
             print(
                 f"{name:22s} {hw:11s} fits={'yes' if d['fits'] else 'no ':3s} chips={d['chips']:3d} cores={d['cores']:4d}"
-                f" energy={energy.joules_per_inference:.4g} J  violations={len(d['violations'])}"
+                f" energy={shown}  violations={len(d['violations'])}"
                 f" {sorted({v['limit'] for v in d['violations']})}"
             )
     if args.json:

@@ -56,9 +56,10 @@ from neurovpr.data.traverse import Traverse
 from neurovpr.fileio import atomic_write_bytes, atomic_write_text
 from neurovpr.models.modular_snn import TrainingSettings, member_similarities, query_responses, train_run
 from neurovpr.models.modular_snn.parallel import default_workers
+from neurovpr.models.modular_snn.plan import default_calibration_places, describe_plan
 from neurovpr.models.modular_snn.plugin import load_traverse
 from neurovpr.models.modular_snn.report import evaluate_similarities, write_plots
-from neurovpr.models.modular_snn.runs import default_calibration_places, describe_plan, digest, reference_digest
+from neurovpr.models.modular_snn.runs import digest, reference_digest
 from neurovpr.paths import shared_datasets
 
 FULL_PLACES, FULL_EPOCHS, MODULE = 2400, 30, 25

@@ -63,8 +63,8 @@ from neurovpr.models.modular_snn import (
     train_run,
 )
 from neurovpr.models.modular_snn.parallel import default_workers, read_npz
+from neurovpr.models.modular_snn.plan import calibration_places
 from neurovpr.models.modular_snn.plugin import load_traverse
-from neurovpr.models.modular_snn.runs import calibration_places
 from neurovpr.paths import shared_datasets
 
 FIXTURE = Path(__file__).resolve().parent / "fixtures" / "modular_snn_vprsnn_oracle.json"

@@ -80,8 +80,8 @@ def build_module(input_spikes: nv.SpikeSourceArray, seed: int) -> nv.Network:
     return net
 
 
-def poisson_images(n_images: int, rng: np.random.Generator) -> list[nv.SpikeSourceArray]:
-    """One set of Poisson spike trains (at most one spike per step) per synthetic image."""
+def poisson_events(n_images: int, rng: np.random.Generator) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Spike times (ms, from 0) and pixel indices of Poisson trains (at most one spike per step), per synthetic image."""
     steps = int(PRESENT_MS / DT)
     out = []
     for _ in range(n_images):
@@ -89,8 +89,13 @@ def poisson_images(n_images: int, rng: np.random.Generator) -> list[nv.SpikeSour
         p = img / 4.0 * DT / 1000.0
         fire = rng.random((steps, 784)) < p
         t_idx, n_idx = np.nonzero(fire)
-        out.append(nv.SpikeSourceArray.from_events(t_idx * DT, n_idx, 784))
+        out.append((t_idx * DT, n_idx))
     return out
+
+
+def poisson_images(n_images: int, rng: np.random.Generator) -> list[nv.SpikeSourceArray]:
+    """One set of Poisson spike trains per synthetic image (:func:`poisson_events`)."""
+    return [nv.SpikeSourceArray.from_events(t, n, 784) for t, n in poisson_events(n_images, rng)]
 
 
 def train(backend: str, images: list[nv.SpikeSourceArray], epochs: int, seed: int, **options: object) -> dict:

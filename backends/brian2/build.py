@@ -19,6 +19,7 @@ from typing import Any
 
 import brian2 as b2
 import numpy as np
+from brian2.devices.device import RuntimeDevice
 
 from neurovpr.backendkit.params import per_neuron
 from neurovpr.backendkit.sources import array_events
@@ -298,7 +299,10 @@ def _build_synapses(
         syn.connect(i=conns.pre.astype(np.int32), j=conns.post.astype(np.int32))
     else:
         syn.connect(False)  # no synapses (Brian2 refuses empty index arrays)
-    order = _canonical_order(proj.name, conns, np.asarray(syn.i[:]), np.asarray(syn.j[:]))
+    if isinstance(b2.get_device(), RuntimeDevice):
+        order = _canonical_order(proj.name, conns, np.asarray(syn.i[:]), np.asarray(syn.j[:]))
+    else:  # a standalone device: indices are readable only after its run; it keeps the given order
+        order = np.arange(len(conns))
     weights = np.empty(len(conns))
     weights[order] = conns.weight
     set_values(syn, "w", weights)

@@ -4,8 +4,8 @@ Both run the inference subset: ``IF_curr_exp`` populations with fixed weights,
 every connector, Poisson and array sources, delays of whole steps. Lava's LIF
 has one synaptic current per neuron, so a population fed through both receptor
 types needs ``tau_syn_E == tau_syn_I``. ``lava-fixed`` adds Loihi 2's limits:
-delays of at most 63 steps (6 bits) and a bias that fits its 13-bit mantissa
-and 3-bit exponent.
+delays that fit the 6-bit delay field (:func:`max_fixed_delay_steps`) and a bias
+that fits its 13-bit mantissa and 3-bit exponent.
 """
 
 from __future__ import annotations
@@ -15,20 +15,32 @@ from types import MappingProxyType
 
 import numpy as np
 
-from neurovpr.backendkit.capabilities import CURRENT_LIF, EVERY_CONNECTOR, STATIC_SYNAPSE
+from neurovpr.backendkit.capabilities import CURRENT_LIF_INFERENCE
 from neurovpr.backendkit.timing import delay_steps
 from neurovpr.hardware.hwspec import load_hwspec
 from neurovpr.ir.cells import IF_curr_exp
 from neurovpr.ir.connectivity import Connections
 from neurovpr.ir.network import Network
-from neurovpr.runtime.backend import Capabilities, ToleranceOverride
+from neurovpr.runtime.backend import ToleranceOverride
 
 from .translation import lava_lif, lif_problems
 
-__all__ = ["LAVA_CAPABILITIES", "LAVA_FIXED_CAPABILITIES", "network_problems", "compile_problems"]
+__all__ = ["LAVA_CAPABILITIES", "LAVA_FIXED_CAPABILITIES", "network_problems", "compile_problems", "max_fixed_delay_steps"]
 
-#: Loihi 2 synaptic delays are 6-bit (lava/proc/dense/models.py, PyDelayDenseModelBitAcc).
-_MAX_FIXED_DELAY = 63
+
+
+def max_fixed_delay_steps() -> int:
+    """The longest delay ``lava-fixed`` runs, in steps: all of the ``loihi2`` hwspec's delay field.
+
+    ``2**delay_bits - 1`` from ``[synapse_encoding]`` (6 bits: 63 steps), the range Lava's
+    bit-accurate ``DelayDense`` accepts (lava/proc/dense/models.py, PyDelayDenseModelBitAcc:
+    "a spike can be delayed by 0 to 63 time steps"). A neuron's ``K``-step delay is ``delays = K``
+    there (:mod:`.build`). It differs from the hwspec's ``[timing] max_delay_steps`` (62), which
+    is Loihi 1's chip-level figure (Davies 2018 p. 92) used as a proxy for Loihi 2 by
+    ``neurovpr check``: this backend emulates Lava's process models, and Lava enforces the field.
+    """
+    return 2 ** load_hwspec("loihi2").rules.delay_bits - 1
+
 
 _DELAY_LIMIT = "the case uses a 7.3 ms delay, 73 steps at dt = 0.1 ms; Loihi 2 synaptic delays are 6-bit (at most 63 steps)"
 #: Conformance cases (neurovpr.conformance) ``lava-fixed`` cannot run, with the reason.
@@ -52,14 +64,7 @@ _FIXED_TOLERANCES = {
     ),
 }
 
-LAVA_CAPABILITIES = Capabilities(
-    cell_types=CURRENT_LIF,
-    connectors=EVERY_CONNECTOR,
-    synapses=STATIC_SYNAPSE,
-    learns=False,
-    heterogeneous_delays=True,
-    recordables=frozenset({"v"}),
-)
+LAVA_CAPABILITIES = CURRENT_LIF_INFERENCE
 
 LAVA_FIXED_CAPABILITIES = dataclasses.replace(
     LAVA_CAPABILITIES,
@@ -93,12 +98,13 @@ def compile_problems(network: Network, connections: dict[str, Connections], dt: 
     """Problems that depend on the time step: delays and (fixed point) the bias format."""
     problems: list[str] = []
     if fixed:
+        limit = max_fixed_delay_steps()
         for name, conns in connections.items():
             steps = delay_steps(conns.delay, dt)
-            if steps.size and steps.max() > _MAX_FIXED_DELAY:
+            if steps.size and steps.max() > limit:
                 problems.append(
                     f"delay {steps.max() * dt:g} ms = {steps.max()} steps (projection {name!r}; "
-                    f"Loihi 2 delays are at most {_MAX_FIXED_DELAY} steps)"
+                    f"Loihi 2 delays are at most {limit} steps)"
                 )
         fmt = load_hwspec("loihi2").formats
         for pop in network.populations.values():

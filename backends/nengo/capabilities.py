@@ -17,14 +17,14 @@ from types import MappingProxyType
 
 import numpy as np
 
-from neurovpr.backendkit.capabilities import CURRENT_LIF, EVERY_CONNECTOR, STATIC_SYNAPSE
+from neurovpr.backendkit.capabilities import CURRENT_LIF_INFERENCE
 from neurovpr.backendkit.lif import normalised_lif
 from neurovpr.backendkit.timing import delay_steps
 from neurovpr.ir.cells import IF_curr_exp
 from neurovpr.ir.connectivity import Connections
 from neurovpr.ir.connectors import ConvolutionConnector
 from neurovpr.ir.network import Network
-from neurovpr.runtime.backend import Capabilities, ToleranceOverride
+from neurovpr.runtime.backend import ToleranceOverride
 
 from .translation import conv_padding_mode, lif_problems
 
@@ -52,15 +52,7 @@ _NENGO_LOIHI_TOLERANCES = {
     ),
 }
 
-NENGO_CAPABILITIES = Capabilities(
-    cell_types=CURRENT_LIF,
-    connectors=EVERY_CONNECTOR,
-    synapses=STATIC_SYNAPSE,
-    learns=False,
-    heterogeneous_delays=True,
-    recordables=frozenset({"v"}),
-    unsupported=MappingProxyType(_NENGO_UNSUPPORTED),
-)
+NENGO_CAPABILITIES = dataclasses.replace(CURRENT_LIF_INFERENCE, unsupported=MappingProxyType(_NENGO_UNSUPPORTED))
 
 NENGO_LOIHI_CAPABILITIES = dataclasses.replace(
     NENGO_CAPABILITIES,

@@ -33,7 +33,7 @@ class PyNNBackend(Backend):
 
     version_of = "PyNN"
     extra = "pynn"
-    options = MappingProxyType({"codegen_target": "numpy"})
+    options = MappingProxyType({"codegen_target": "numpy", "threads": 1})
 
     def __init__(
         self, *, name: str, simulator: Simulator, description: str, requires: tuple[str, ...], capabilities: Capabilities
@@ -59,12 +59,18 @@ class PyNNBackend(Backend):
         target = options["codegen_target"]
         if target not in ("numpy", "cython"):
             raise ValidationError(f"Backend {self.name!r}: codegen_target must be 'numpy' or 'cython', got {target!r}.")
+        threads = options["threads"]
+        if isinstance(threads, bool) or not isinstance(threads, int) or threads < 1:
+            raise ValidationError(f"Backend {self.name!r}: threads must be a whole number of at least 1, got {threads!r}.")
+        if threads != 1 and self.simulator != "nest":
+            raise ValidationError(f"Backend {self.name!r}: threads={threads} needs NEST; Brian2 under PyNN runs one thread.")
         # PyNN and the simulator are imported when a network is compiled, not with the declaration
         from .simulation import PyNNSimulation
 
         return PyNNSimulation(
-            network, backend=self.name, simulator=self.simulator, dt=dt, seed=seed, codegen_target=target
-        )
+            network, backend=self.name, simulator=self.simulator, dt=dt, seed=seed, codegen_target=target,
+            threads=threads,
+        )  # fmt: skip
 
 
 BACKEND = PyNNBackend(

@@ -327,6 +327,8 @@ def build_network(
     simulator: Simulator,
     plan: NetworkPlan,
     weights: dict[str, np.ndarray],
+    *,
+    threads: int = 1,
 ) -> Built:
     """Set up PyNN and create every population and projection of ``plan``.
 
@@ -340,11 +342,14 @@ def build_network(
         The translated network.
     weights
         Current IR weights of every projection, canonical order.
+    threads
+        NEST's ``local_num_threads`` (1 for Brian2).
     """
     with quiet():
         extra: dict[str, Any] = {}
         if simulator == "nest":
             extra = {"spike_precision": "on_grid", "max_delay": plan.max_delay + plan.dt, "verbosity": "error"}
+            extra["threads"] = threads
         sim.setup(timestep=plan.dt, min_delay=plan.dt, **extra)
         if simulator == "nest":
             import nest

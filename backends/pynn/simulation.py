@@ -67,6 +67,8 @@ class PyNNSimulation(Simulation):
         ``"nest"`` or ``"brian2"``.
     codegen_target
         Brian2's code generation target (``"numpy"`` or ``"cython"``).
+    threads
+        NEST's threads (``local_num_threads``); 1 for Brian2.
     """
 
     def __init__(
@@ -78,6 +80,7 @@ class PyNNSimulation(Simulation):
         dt: float,
         seed: int,
         codegen_target: str = "numpy",
+        threads: int = 1,
     ) -> None:
         super().__init__(network, backend=backend, dt=dt, seed=seed)
         self._simulator: Simulator = simulator
@@ -89,6 +92,7 @@ class PyNNSimulation(Simulation):
         self._record_from: dict[tuple[str, str], int] = {}
         self._cache: dict[str, tuple[int, np.ndarray, np.ndarray]] = {}
         self._frozen: dict[str, dict[Any, Any]] | None = None
+        self._threads = threads
         self._offset = time_offset(simulator, dt)
         self._late_spikes = 0
         self._done = {"steps": 0, "neuron_updates": 0, "spikes": 0, "synaptic_events": 0, "plastic_updates": 0}
@@ -132,7 +136,7 @@ class PyNNSimulation(Simulation):
         if previous is not None and previous is not self:
             previous.close()
         setattr(state, _OWNER, weakref.ref(self))
-        self._built: Built = build_network(self._sim, self._simulator, self._plan, weights)
+        self._built: Built = build_network(self._sim, self._simulator, self._plan, weights, threads=self._threads)
         self._steps = 0
         self._first_run = True
         self._cache.clear()

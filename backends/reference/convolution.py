@@ -31,7 +31,7 @@ import numpy as np
 
 from neurovpr.ir.connectors import ConvolutionConnector
 
-from .kernels import (
+from .kernel_layout import (
     CV_C,
     CV_DELAY,
     CV_H,

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 
 from .convolution import ConvSpec, conv_tables
-from .kernels import BLOCK_SHIFT
+from .kernel_layout import BLOCK_SHIFT
 
 __all__ = ["BLOCK_SHIFT", "split_static", "static_delivery"]
 

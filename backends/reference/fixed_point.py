@@ -32,6 +32,7 @@ from neurovpr.hardware.hwspec import HwSpec
 from neurovpr.ir.cells import IF_cond_exp, IF_curr_exp, IF_curr_exp_ca2_adaptive
 from neurovpr.ir.network import Network
 
+from . import kernel_layout as kl
 from . import kernels_fixed as kf
 from .capabilities import RECORDABLE_ON_HARDWARE
 from .quantisation import COND_SHIFT, FixedLayout, quantise
@@ -158,26 +159,30 @@ class FixedPointSimulation(ReferenceSimulation):
         assert fx is not None
         j0, j1 = self._step, self._step + n_steps
         raw = np.zeros((n_steps, self._var_idx.size))
-        common = (lay.s_ptr, fx.s_gp, fx.s_val, lay.s_delay, self._acc)
-        sources = (self._pois_idx, self._pois_logq, self._pois_next, self._pois_start, self._pois_end,
-                   self._arr_step, self._arr_neuron, self._arr_ptr, self._rng, self._rec_mask, self._rec_t,
-                   self._rec_i, self._rec_n, self._headroom, self._var_idx)  # fmt: skip
+        syn = kf.FixedSynapses(lay.s_ptr, fx.s_gp, fx.s_val, lay.s_delay)
+        if fx.variant == "spinnaker":
+            formats = kf.SpinnakerFormats(fmt.fraction_bits, 2**fmt.accumulator_bits - 1, COND_SHIFT)
+            state = kf.SpinnakerState(self._v_i, self._ie_i, self._ii_i, self._ica_i, self._refr_i)
+        else:
+            loihi1 = fx.variant == "loihi1"
+            variant, shift = (kf.LOIHI1, 0) if loihi1 else (kf.LOIHI2, fmt.weight_exponent_offset)
+            formats = kf.LoihiFormats(variant, fmt.decay_bits, fmt.accumulator_bits, fmt.current_bits - 1, shift)
+            state = kf.LoihiState(self._u_i, self._v_i, self._refr_i, self._q_i)
         j = j0
         while j < j1:
+            sources, record = self._sources(), self._spike_record()
+            var = kl.VarRecord(self._var_idx, self._var_code, raw[j - j0 :])
             if fx.variant == "spinnaker":
                 reached = kf.run_spinnaker(
-                    j, j1, fmt.fraction_bits, 2**fmt.accumulator_bits - 1, COND_SHIFT, fx.params, self._v_i,
-                    self._ie_i, self._ii_i, self._ica_i, self._refr_i, self._counts, *common, *sources,
-                    self._var_code, raw[j - j0 :], self._stats,
-                )  # fmt: skip
+                    j, j1, formats, fx.params, state, self._counts, syn, self._acc, sources, record, self._headroom, var,
+                    self._stats,
+                )
             else:
+                groups = kf.SynapseGroups(fx.gp_post, fx.gp_exp)
                 reached = kf.run_loihi(
-                    j, j1, kf.LOIHI1 if fx.variant == "loihi1" else kf.LOIHI2, fmt.decay_bits,
-                    fmt.accumulator_bits, fmt.current_bits - 1,
-                    0 if fx.variant == "loihi1" else fmt.weight_exponent_offset, fx.params, self._u_i, self._v_i,
-                    self._refr_i, self._q_i, self._counts, *common, fx.gp_post, fx.gp_exp, *sources,
-                    raw[j - j0 :], self._stats,
-                )  # fmt: skip
+                    j, j1, formats, fx.params, state, groups, self._counts, syn, self._acc, sources, record,
+                    self._headroom, var, self._stats,
+                )
             self._flush_spikes()
             j = reached
         self._step = j1

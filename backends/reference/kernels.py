@@ -1,4 +1,4 @@
-"""The compiled step loop of the reference backend, and everything it calls.
+"""The compiled step loop of the reference backend.
 
 One ``numba.njit`` function advances the whole network over a range of steps with
 no Python in the loop. The order within step ``j`` follows docs/semantics.md:
@@ -31,11 +31,14 @@ segment (one presynaptic neuron, projection and delay) see the same arrivals, so
 their presynaptic trace is held once per segment (``seg_xpre``, decayed lazily from
 its last arrival ``seg_last``); postsynaptic traces decay every step.
 
-Everything ``run_steps`` computes with lives in this module, because numba's on-disk
-cache of a function is only invalidated when its own source file changes (the
-prefetch hint in :mod:`.prefetch` cannot change a result). The kernels allocate
-nothing, so they are compiled without numba's reference counting (``_nrt=False``),
-which would cost atomic operations at every call.
+What the loop calls lives in modules named for what they hold: :mod:`.kernel_layout`
+(codes, table columns, the bundles of arrays), :mod:`.kernel_sources` (random draws),
+:mod:`.kernel_neurons`, :mod:`.kernel_plasticity` and :mod:`.kernel_delivery`. numba's
+on-disk cache of a function sees only its own file change, so the two entry points here are
+built by functions that close over a hash of all those files (``CACHE_UNIT``, see
+:mod:`.kernel_cache`): a change to any of them compiles the loop anew. The kernels
+allocate nothing, so they are compiled without numba's reference counting
+(``_nrt=False``), which would cost atomic operations at every call.
 
 The loop returns early (before starting a step) when the spike record buffer may
 overflow; the caller grows the buffer and calls again from that step.
@@ -43,655 +46,161 @@ overflow; the caller grows the buffer and calls again from that step.
 
 from __future__ import annotations
 
-from collections import namedtuple
+from collections.abc import Callable
 
 import numpy as np
 from numba import njit
 
-from .prefetch import prefetch
-
-# The layouts of the arrays the kernels read, defined here (not imported) so that a change
-# to any of them changes this file and so invalidates numba's cache of the kernels;
-# translation.py, convolution.py and delivery.py import them from here.
-
-# Neuron kinds.
-KIND_CURR, KIND_COND, KIND_POISSON, KIND_ARRAY = 0, 1, 2, 3
-
-# Columns of the neuron parameter table.
-(
-    C_V_REST,
-    C_V_RESET,
-    C_V_THRESH,
-    C_I_OFFSET,
-    C_P22,  # exp(-dt/tau_m)
-    C_P20,  # (tau_m/cm)(1 - P22): i_offset -> v
-    C_P11E,  # exp(-dt/tau_syn_E)
-    C_P11I,
-    C_P21E,  # I_E(t) -> v over one step (current-based)
-    C_P21I,
-    C_FE,  # mean of a decaying conductance over one step, relative to its start value
-    C_FI,
-    C_GL,  # leak conductance cm/tau_m
-    C_CM,
-    C_E_REV_E,
-    C_E_REV_I,
-    C_THETA_PLUS,
-    C_THETA_DECAY,  # exp(-dt/tau_theta)
-    C_P11CA,  # exp(-dt/tau_ca2)
-    C_P21CA,  # I_ca2 -> v
+from .kernel_cache import source_stamp
+from .kernel_delivery import deliver_static, emit, later_slot
+from .kernel_layout import (
     C_I_ALPHA,
-    C_REFRAC,  # refractory steps (membrane held at v_reset)
-    C_LOCK,  # steps after the refractory ones in which the membrane integrates but may not fire (tau_lockout)
-    C_V_INIT,
-    C_I_CA_INIT,
-    N_COLS,
-) = range(26)
+    C_LOCK,
+    C_REFRAC,
+    C_THETA_PLUS,
+    C_V_RESET,
+    G_FLAGS,
+    G_HI,
+    G_KIND,
+    G_LO,
+    KIND_CURR,
+    NEVER,
+    ST_NEURON_UPDATES,
+    ST_PLASTIC_UPDATES,
+    ST_STEPS,
+    ST_SYN_EVENTS,
+    VAR_EXC,
+    VAR_INH,
+    VAR_THETA,
+    VAR_V,
+)
+from .kernel_neurons import update_cond, update_curr
+from .kernel_plasticity import arrive, decay_post_traces, post_traces, potentiate
+from .kernel_sources import geometric_gap
 
-# Columns that hold initial values, not parameters of the dynamics.
-INIT_COLS = (C_V_INIT, C_I_CA_INIT)
-
-# Columns of the group table, and the group flags.
-G_LO, G_HI, G_KIND, G_FLAGS, N_GROUP_COLS = range(5)
-#: The group receives inhibitory synapses (otherwise its inhibitory current stays 0).
-F_INH = 1
-#: The group has the Ca2+ adaptation current (otherwise it stays 0).
-F_CA = 2
-#: The group has an adaptive threshold.
-F_ADAPTIVE = 4
-
-# Rule kinds and columns of the plasticity rule table.
-RULE_ADDITIVE, RULE_MULTIPLICATIVE, RULE_DIEHL_COOK = 0, 1, 2
-(R_KIND, R_POT, R_DEP, R_W_MIN, R_W_MAX, R_TAU_PRE, R_TAU_POST, R_MU, R_X_TAR, R_TAU_POST2, N_RULE_COLS) = range(11)
-
-
-# Columns of the per-projection parameter table ``cv_par``.
-(CV_PRE0, CV_C, CV_H, CV_W, CV_O, CV_OH, CV_OW, CV_KH, CV_KW, CV_SH, CV_SW, CV_PH, CV_PW, CV_POST0, CV_DELAY, CV_REC,
- CV_WOFF) = range(17)  # fmt: skip
-N_CV_COLS = 17
-
-#: Static arrivals are tracked per block of ``1 << BLOCK_SHIFT`` consecutive neurons.
-BLOCK_SHIFT = 6
-
-# Codes of the recordable variables (the kernel's recording step switches on them).
-VAR_V, VAR_EXC, VAR_INH, VAR_THETA, VAR_CA = range(5)
-VAR_CODES = {
-    "v": VAR_V,
-    "isyn_exc": VAR_EXC,
-    "gsyn_exc": VAR_EXC,
-    "isyn_inh": VAR_INH,
-    "gsyn_inh": VAR_INH,
-    "theta": VAR_THETA,
-    "i_ca2": VAR_CA,
-}
-
-NEVER = np.int64(2**62)
-
-# The arrays :func:`emit` works on, bundled by role (numba passes a tuple of arrays as
-# one argument; ``emit`` is inlined, so the bundles cost nothing at run time).
-#: The spike record: which neurons are recorded, the spike steps and neurons, the count.
-SpikeRecord = namedtuple("SpikeRecord", "mask t i n")
-#: Static delivery (:func:`.delivery.static_delivery`): segments per neuron, their synapses and neuron blocks.
-StaticTables = namedtuple("StaticTables", "seg_ptr seg_start seg post w blk_ptr blk")
-#: The ring of arrivals: static sums and their marks, and the plastic events per slot.
-Arrivals = namedtuple("Arrivals", "buf dirty row_any row_range ev ev_n")
-#: Structured convolutions (:mod:`.convolution`): per-neuron entries, parameters, transposed kernels.
-ConvTables = namedtuple("ConvTables", "index par w")
-
-# Indices of the activity counters.
-ST_STEPS, ST_NEURON_UPDATES, ST_SPIKES, ST_SYN_EVENTS, ST_PLASTIC_UPDATES = range(5)
+#: The modules whose code the compiled entry points below are made of (numba caches them
+#: under a hash of all these files).
+CACHE_UNIT = ("kernels", "kernel_layout", "kernel_sources", "kernel_neurons", "kernel_plasticity", "kernel_delivery", "prefetch")
 
 
-@njit(cache=True, inline="always", _nrt=False)
-def uniform(rng: np.ndarray) -> float:
-    """A uniform draw in (0, 1] from a xorshift64* generator held in ``rng[0]``."""
-    x = rng[0]
-    x ^= x >> np.uint64(12)
-    x ^= x << np.uint64(25)
-    x ^= x >> np.uint64(27)
-    rng[0] = x
-    r = x * np.uint64(2685821657736338717)
-    return float((r >> np.uint64(11)) + np.uint64(1)) * (1.0 / 9007199254740992.0)
+def _step_loop(stamp: int) -> Callable[..., int]:
+    """The step loop, cached under ``stamp`` (:func:`.kernel_cache.source_stamp` of ``CACHE_UNIT``)."""
 
+    @njit(cache=True, _nrt=False)
+    def run_steps(
+        j0, j1, dt, plastic_on, headroom, n_updated, neurons, record, static, arrivals, conv, syn, stdp, sources, var, stats
+    ):
+        """Advance from step ``j0`` to ``j1`` (exclusive); return the step reached.
 
-@njit(cache=True, _nrt=False)
-def geometric_gap(rng: np.ndarray, log_q: float) -> np.int64:
-    """Number of empty steps before the next spike of a Bernoulli(p) process, ``log_q = log(1 - p)``."""
-    if log_q == 0.0:
-        return NEVER
-    gap = np.floor(np.log(uniform(rng)) / log_q)
-    if gap > 2.0**61:
-        return NEVER
-    return np.int64(gap)
-
-
-@njit(cache=True, _nrt=False)
-def draw_poisson(j: int, idx: np.ndarray, log_q: np.ndarray, nxt: np.ndarray, rng: np.ndarray) -> None:
-    """(Re)draw the next spike step of every Poisson neuron from step ``j`` on."""
-    for k in range(idx.size):
-        g = geometric_gap(rng, log_q[k])
-        nxt[k] = NEVER if g == NEVER else j + g
-
-
-# -- neuron groups ------------------------------------------------------------
-#: Synaptic currents (nA) and conductances (uS) below this are set to 0: their effect on
-#: the membrane is below 1e-19 mV per step, far below double precision of v.
-FLUSH = 1e-18
-
-
-@njit(cache=True, inline="always", _nrt=False)
-def flush(x: float) -> float:
-    """``x``, or 0 when its magnitude is below ``FLUSH``."""
-    return x if abs(x) >= FLUSH else 0.0
-
-
-@njit(cache=True, _nrt=False)
-def update_curr(lo, hi, flags, params, v, ie, ii, ica, refr, flag):  # fmt: skip
-    """Advance the current-based neurons ``lo:hi`` with the parameters of neuron ``lo``; return how many spiked.
-
-    One loop per set of non-zero terms (Ca2+ and inhibitory currents, inhibitory only,
-    neither), each free of branches so that it compiles to vector instructions.
-    """
-    ulo, uhi = np.uint64(lo), np.uint64(hi)  # unsigned indices: no negative-index wrap, so the loops vectorise
-    rest, p22, p21e, p11e = params[lo, C_V_REST], params[lo, C_P22], params[lo, C_P21E], params[lo, C_P11E]
-    p21i, p11i, p21ca, p11ca = params[lo, C_P21I], params[lo, C_P11I], params[lo, C_P21CA], params[lo, C_P11CA]
-    i_off, p20, v_th = params[lo, C_I_OFFSET], params[lo, C_P20], params[lo, C_V_THRESH]
-    n_spikes = 0
-    if flags & F_CA:
-        for q in range(ulo, uhi):
-            r, vq, a, b, c = refr[q], v[q], ie[q], ii[q], ica[q]
-            moved = rest + (vq - rest) * p22 + a * p21e - b * p21i - c * p21ca + i_off * p20
-            vq = vq if r > 0 else moved
-            r = r - 1 if r > 0 else r
-            ie[q] = flush(a * p11e)
-            ii[q] = flush(b * p11i)
-            ica[q] = flush(c * p11ca)
-            spike = (vq >= v_th) & (r == 0)
-            v[q], refr[q], flag[q] = vq, r, spike
-            n_spikes += spike
-    elif flags & F_INH:
-        for q in range(ulo, uhi):
-            r, vq, a, b = refr[q], v[q], ie[q], ii[q]
-            moved = rest + (vq - rest) * p22 + a * p21e - b * p21i + i_off * p20
-            vq = vq if r > 0 else moved
-            r = r - 1 if r > 0 else r
-            ie[q] = flush(a * p11e)
-            ii[q] = flush(b * p11i)
-            spike = (vq >= v_th) & (r == 0)
-            v[q], refr[q], flag[q] = vq, r, spike
-            n_spikes += spike
-    else:
-        for q in range(ulo, uhi):
-            r, vq, a = refr[q], v[q], ie[q]
-            moved = rest + (vq - rest) * p22 + a * p21e + i_off * p20
-            vq = vq if r > 0 else moved
-            r = r - 1 if r > 0 else r
-            ie[q] = flush(a * p11e)
-            spike = (vq >= v_th) & (r == 0)
-            v[q], refr[q], flag[q] = vq, r, spike
-            n_spikes += spike
-    return n_spikes
-
-
-@njit(cache=True, inline="always", _nrt=False)
-def update_cond(lo, hi, flags, params, dt, plastic_on, v, ie, ii, theta, refr, flag):  # fmt: skip
-    """Advance the conductance-based neurons ``lo:hi`` with the parameters of neuron ``lo``; return how many spiked."""
-    rest, p22, i_off, p20 = params[lo, C_V_REST], params[lo, C_P22], params[lo, C_I_OFFSET], params[lo, C_P20]
-    fe, fi, gl, cm = params[lo, C_FE], params[lo, C_FI], params[lo, C_GL], params[lo, C_CM]
-    e_rev_e, e_rev_i, v_th = params[lo, C_E_REV_E], params[lo, C_E_REV_I], params[lo, C_V_THRESH]
-    p11e, p11i, theta_decay = params[lo, C_P11E], params[lo, C_P11I], params[lo, C_THETA_DECAY]
-    lock = np.int64(params[lo, C_LOCK])  # the last `lock` steps of the count: free membrane, no spike yet
-    adapt = plastic_on and (flags & F_ADAPTIVE) != 0
-    n_spikes = 0
-    for i in range(lo, hi):
-        if refr[i] > lock:
-            refr[i] -= 1
-        else:
-            if refr[i] > 0:
-                refr[i] -= 1
-            if ie[i] == 0.0 and ii[i] == 0.0:  # no conductance: the leak alone (P22 = exp(-dt gL / cm))
-                v[i] = rest + (v[i] - rest) * p22 + i_off * p20
-            else:
-                ge = ie[i] * fe
-                gi = ii[i] * fi
-                gt = gl + ge + gi
-                v_inf = (gl * rest + ge * e_rev_e + gi * e_rev_i + i_off) / gt
-                v[i] = v_inf + (v[i] - v_inf) * np.exp(-dt * gt / cm)
-        ie[i] = flush(ie[i] * p11e)
-        ii[i] = flush(ii[i] * p11i)
-        if adapt:
-            theta[i] *= theta_decay
-        spike = v[i] >= v_th + theta[i] and refr[i] == 0
-        flag[i] = spike
-        n_spikes += spike
-    return n_spikes
-
-
-# -- plastic synapses ---------------------------------------------------------
-@njit(cache=True, inline="always", _nrt=False)
-def table_decay(x, steps, table, r, dt, tau):  # fmt: skip
-    """``x * exp(-steps * dt / tau)`` with the factor from rule ``r``'s table when it holds it.
-
-    Past the table, a row ending in 0 has decayed to exactly 0 (``exp`` is monotone,
-    see :func:`.translation.extend_pre_table`).
-    """
-    if x == 0.0:
-        return 0.0
-    width = table.shape[1]
-    if steps < width:
-        return x * table[r, steps]
-    if table[r, width - 1] == 0.0:
-        return x * 0.0
-    return x * np.exp(-steps * dt / tau)
-
-
-@njit(cache=True, _nrt=False)
-def arrive(g, nxt, j, dt, plastic_on, seg_start, seg_proj, p_post, p_w, seg_xpre, seg_last, rules, pre_table,
-           tr_shift, proj_inh, xpost1, isyn):  # fmt: skip
-    """Spikes arriving at segment ``g`` at step ``j``: depress, deliver, advance the pre trace.
-
-    Each synapse is first depressed by the postsynaptic trace (its value at time ``j``)
-    and then delivers its new weight to ``isyn[0]`` (excitatory) or ``isyn[1]``
-    (inhibitory). Returns the number of weight updates. ``nxt`` is the first synapse of
-    the segment that arrives next: its weights and targets are prefetched meanwhile, a
-    line every 8 synapses (segments lie apart, so the hardware prefetcher would start
-    on each one late).
-    """
-    r = seg_proj[g]
-    rk = rules[r, R_KIND]
-    shift = tr_shift[r]  # trace of post neuron i: i + shift (>= 0)
-    w_min, w_max, dep = rules[r, R_W_MIN], rules[r, R_W_MAX], rules[r, R_DEP]
-    target = np.uint64(1 if proj_inh[r] else 0)
-    lo, hi = np.uint64(seg_start[g]), np.uint64(seg_start[g + 1])
-    ahead = np.uint64(nxt) - lo  # wraps when the next segment lies before this one: the sum below is exact
-    updates = 0
-    if not plastic_on:
-        for q in range(lo, hi):
-            if (q & np.uint64(7)) == 0:
-                prefetch(p_w, ahead + q)
-                prefetch(p_post, ahead + q)
-            isyn[target, p_post[q]] += p_w[q]
-    elif rk == RULE_ADDITIVE:
-        step = dep * w_max
-        for q in range(lo, hi):  # without branches: a zero trace keeps the weight
-            if (q & np.uint64(7)) == 0:
-                prefetch(p_w, ahead + q)
-                prefetch(p_post, ahead + q)
-            post = p_post[q]
-            x_post = xpost1[np.uint64(post + shift)]
-            w = p_w[q]
-            moved = min(max(w - step * x_post, w_min), w_max)
-            w = moved if x_post != 0.0 else w
-            p_w[q] = w
-            updates += x_post != 0.0
-            isyn[target, post] += w
-    else:
-        for q in range(lo, hi):
-            post = p_post[q]
-            x_post = xpost1[np.uint64(post + shift)]
-            if x_post != 0.0:
-                w = p_w[q]
-                if rk == RULE_MULTIPLICATIVE:
-                    w -= dep * (w - w_min) * x_post
+        ``headroom`` is the most spikes one step can record; the loop stops before a step
+        that could overflow the record buffers. ``n_updated`` is the number of neurons the
+        groups update (sources excluded). The bundles (:mod:`.kernel_layout`) are a ``Neurons``,
+        ``SpikeRecord``, ``StaticTables``, ``Arrivals``, ``ConvTables``,
+        ``PlasticTables``, ``Traces``, ``Sources`` and ``VarRecord``;
+        ``stats`` holds the activity counters (``ST_*``).
+        """
+        stamp  # noqa: B018 - in numba's cache key (see .kernel_cache)
+        groups, params, v, isyn, ie, ii = neurons.groups, neurons.params, neurons.v, neurons.isyn, neurons.ie, neurons.ii
+        theta, ica, refr, flag, flag_words = neurons.theta, neurons.ica, neurons.refr, neurons.flag, neurons.flag_words
+        counts = neurons.counts
+        pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng = sources
+        seg_start, ev, ev_n, rec_n = syn.seg_start, arrivals.ev, arrivals.ev_n, record.n
+        ring = ev_n.size
+        n = v.size
+        cap = record.t.size
+        width = arrivals.buf.size // arrivals.row_any.size
+        for j in range(j0, j1):
+            if rec_n[0] + headroom > cap:
+                return j
+            slot = j % ring
+            after = later_slot(slot, 1, ring)  # the slot of step j + 1
+            # 1. sources
+            for k in range(pois_idx.size):
+                if pois_next[k] == j:
+                    i = pois_idx[k]
+                    if pois_start[k] <= j < pois_end[k]:
+                        emit(i, j, slot, width, counts, stats, record, static, arrivals, conv, syn)
+                    g = geometric_gap(rng, pois_logq[k])
+                    pois_next[k] = NEVER if g == NEVER else j + 1 + g
+                elif pois_next[k] < j:  # window change or redraw in the past: draw forward
+                    g = geometric_gap(rng, pois_logq[k])
+                    pois_next[k] = NEVER if g == NEVER else j + g
+            while arr_ptr[0] < arr_step.size and arr_step[arr_ptr[0]] <= j:
+                if arr_step[arr_ptr[0]] == j:
+                    emit(arr_neuron[arr_ptr[0]], j, slot, width, counts, stats, record, static, arrivals, conv, syn)
+                arr_ptr[0] += 1
+            # 2. arrivals at plastic synapses (post traces hold their value at time j)
+            for e in range(ev_n[slot]):
+                g = ev[slot, e]
+                nxt = seg_start[ev[slot, e + 1] if e + 1 < ev_n[slot] else g]
+                stats[ST_PLASTIC_UPDATES] += arrive(g, nxt, j, dt, plastic_on, syn, stdp, isyn)
+                stats[ST_SYN_EVENTS] += seg_start[g + 1] - seg_start[g]
+            ev_n[slot] = 0
+            # postsynaptic traces advance to the end of the step
+            decay_post_traces(stdp)
+            # static arrivals
+            deliver_static(slot, n, arrivals, isyn)
+            # 3. neurons, group by group; then each group's spikes in increasing index
+            stats[ST_NEURON_UPDATES] += n_updated
+            for grp in range(groups.shape[0]):
+                lo, hi, flags = groups[grp, G_LO], groups[grp, G_HI], groups[grp, G_FLAGS]
+                if groups[grp, G_KIND] == KIND_CURR:
+                    n_spikes = update_curr(lo, hi, flags, neurons)
                 else:
-                    w -= dep * x_post
-                p_w[q] = min(max(w, w_min), w_max)
-                updates += 1
-            isyn[target, post] += p_w[q]
-    if rk == RULE_DIEHL_COOK:
-        seg_xpre[g] = 1.0
-    else:
-        seg_xpre[g] = table_decay(seg_xpre[g], j - seg_last[g], pre_table, r, dt, rules[r, R_TAU_PRE]) + 1.0
-    seg_last[g] = j
-    return updates
+                    n_spikes = update_cond(lo, hi, flags, dt, plastic_on, neurons)
+                word = lo >> 3
+                while n_spikes > 0:
+                    if flag_words[word] != 0:
+                        for i in range(word << 3, (word << 3) + 8):
+                            if flag[i]:
+                                flag[i] = False
+                                n_spikes -= 1
+                                v[i] = params[lo, C_V_RESET]
+                                refr[i] = np.int64(params[lo, C_REFRAC] + params[lo, C_LOCK])
+                                ica[i] += params[lo, C_I_ALPHA]
+                                if plastic_on:
+                                    theta[i] += params[lo, C_THETA_PLUS]
+                                    stats[ST_PLASTIC_UPDATES] += potentiate(i, j + 1, dt, syn, stdp)
+                                post_traces(i, stdp)
+                                emit(i, j + 1, after, width, counts, stats, record, static, arrivals, conv, syn)
+                    word += 1
+            # 4. state recording
+            if var.idx.size:
+                row = j - j0
+                var_out = var.out
+                for r in range(var.idx.size):
+                    i = var.idx[r]
+                    c = var.code[r]
+                    if c == VAR_V:
+                        var_out[row, r] = v[i]
+                    elif c == VAR_EXC:
+                        var_out[row, r] = ie[i]
+                    elif c == VAR_INH:
+                        var_out[row, r] = ii[i]
+                    elif c == VAR_THETA:
+                        var_out[row, r] = theta[i]
+                    else:
+                        var_out[row, r] = ica[i]
+            stats[ST_STEPS] += 1
+        return j1
+
+    return run_steps
 
 
-@njit(cache=True, _nrt=False)
-def potentiate(i, t, dt, post_ptr, post_syn, post_seg, post_rule, seg_proj, seg_xpre, seg_last, p_w, rules,
-               pre_table, tr_shift, xpost2, x_pre):  # fmt: skip
-    """Potentiate the plastic synapses onto neuron ``i``, which spikes at step ``t``; return the updates.
+def _poisson_draws(stamp: int) -> Callable[..., None]:
+    """The Poisson redraw, cached under ``stamp``."""
 
-    The presynaptic traces are gathered first (into ``x_pre``, one per incoming synapse)
-    while the weights are prefetched, so the scattered weight updates that follow do not
-    wait on one another. When all the synapses follow one rule (``post_rule[i] >= 0``)
-    whose decay table ends in 0, the gathering has no branches (a look-up clamped to
-    the table's end is :func:`table_decay`); when that rule is additive, neither has
-    the update loop.
-    """
-    lo = post_ptr[i]
-    n = post_ptr[i + 1] - lo
-    if n == 0:
-        return 0
-    r0 = post_rule[i]
-    base = np.uint64(lo)  # unsigned indices: no negative-index wrap
-    last = pre_table.shape[1] - 1
-    if r0 >= 0 and pre_table[r0, last] == 0.0:
-        for q in range(np.uint64(n)):
-            prefetch(p_w, post_syn[base + q])  # the weights load while the traces are computed
-            g = np.uint64(post_seg[base + q])
-            x_pre[q] = seg_xpre[g] * pre_table[r0, min(t - seg_last[g], last)]
-    elif r0 >= 0:
-        tau = rules[r0, R_TAU_PRE]
-        for q in range(np.uint64(n)):
-            prefetch(p_w, post_syn[base + q])
-            g = np.uint64(post_seg[base + q])
-            x_pre[q] = table_decay(seg_xpre[g], t - seg_last[g], pre_table, r0, dt, tau)
-    else:
-        for q in range(np.uint64(n)):
-            prefetch(p_w, post_syn[base + q])
-            g = np.uint64(post_seg[base + q])
-            r = seg_proj[g]
-            x_pre[q] = table_decay(seg_xpre[g], t - seg_last[g], pre_table, r, dt, rules[r, R_TAU_PRE])
-    updates = 0
-    if r0 >= 0 and rules[r0, R_KIND] == RULE_ADDITIVE:
-        w_min, w_max = rules[r0, R_W_MIN], rules[r0, R_W_MAX]
-        step = rules[r0, R_POT] * w_max
-        for q in range(np.uint64(n)):
-            x = x_pre[q]
-            k = np.uint64(post_syn[base + q])
-            w = p_w[k]
-            moved = min(max(w + step * x, w_min), w_max)
-            p_w[k] = moved if x != 0.0 else w
-            updates += x != 0.0
-        return updates
-    for q in range(n):
-        x = x_pre[q]
-        k = post_syn[lo + q]
-        r = seg_proj[post_seg[lo + q]]
-        rk = rules[r, R_KIND]
-        w = p_w[k]
-        w_min, w_max = rules[r, R_W_MIN], rules[r, R_W_MAX]
-        if rk == RULE_ADDITIVE:  # without branches: a zero trace keeps the weight
-            moved = min(max(w + rules[r, R_POT] * w_max * x, w_min), w_max)
-            p_w[k] = moved if x != 0.0 else w
-            updates += x != 0.0
-            continue
-        if rk == RULE_MULTIPLICATIVE:
-            if x == 0.0:
-                continue
-            w += rules[r, R_POT] * (w_max - w) * x
-        else:
-            factor = (x - rules[r, R_X_TAR]) * (w_max - w) ** rules[r, R_MU]
-            if rules[r, R_TAU_POST2] > 0.0:
-                factor *= xpost2[i + tr_shift[r]]
-            if factor == 0.0:
-                continue
-            w += rules[r, R_POT] * factor
-        p_w[k] = min(max(w, w_min), w_max)
-        updates += 1
-    return updates
+    @njit(cache=True, _nrt=False)
+    def draw_poisson(j: int, idx: np.ndarray, log_q: np.ndarray, nxt: np.ndarray, rng: np.ndarray) -> None:
+        """(Re)draw the next spike step of every Poisson neuron from step ``j`` on."""
+        stamp  # noqa: B018 - in numba's cache key (see .kernel_cache)
+        for k in range(idx.size):
+            g = geometric_gap(rng, log_q[k])
+            nxt[k] = NEVER if g == NEVER else j + g
+
+    return draw_poisson
 
 
-@njit(cache=True, inline="always", _nrt=False)
-def post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2):  # fmt: skip
-    """Update the postsynaptic traces of neuron ``i`` for its spike (traces are at its time already)."""
-    for q in range(post_tr_ptr[i], post_tr_ptr[i + 1]):
-        tr = post_tr_idx[q]
-        if rules[trace_proj[tr], R_KIND] == RULE_DIEHL_COOK:
-            xpost1[tr] = 1.0
-            xpost2[tr] = 1.0
-        else:
-            xpost1[tr] += 1.0
-
-
-@njit(cache=True, inline="always", _nrt=False)
-def decay_post_traces(rules, tr_lo, tr_hi, post_decay1, post_decay2, xpost1, xpost2):  # fmt: skip
-    """Advance every postsynaptic trace by one step.
-
-    The second trace is only ever non-zero under the Diehl & Cook rule, so only those
-    projections decay it.
-    """
-    for r in range(tr_lo.size):
-        lo, hi = tr_lo[r], tr_hi[r]
-        if hi == lo:
-            continue
-        d1 = post_decay1[lo]
-        for q in range(np.uint64(lo), np.uint64(hi)):
-            xpost1[q] *= d1
-        if rules[r, R_KIND] == RULE_DIEHL_COOK:
-            d2 = post_decay2[lo]
-            for q in range(np.uint64(lo), np.uint64(hi)):
-                xpost2[q] *= d2
-
-
-# -- the step loop ------------------------------------------------------------
-@njit(cache=True, inline="always", _nrt=False)
-def later_slot(at, delay, ring):  # fmt: skip
-    """The ring slot ``delay`` steps after slot ``at``: ``(at + delay) % ring`` without a division.
-
-    A delay is shorter than the ring, so one subtraction is enough.
-    """
-    due = at + delay
-    return due - ring if due >= ring else due
-
-
-@njit(cache=True, inline="always", _nrt=False)
-def convolve(k, at, cv_index, cv_par, cv_w, buf, row_any, row_range, ring, width):  # fmt: skip
-    """Schedule a spike through the structured convolution entry at ``cv_index[k:k + 3]``; return the synapses reached.
-
-    For every output position whose receptive field holds the neuron, all output
-    channels receive the kernel's weights for that field position (see
-    :mod:`.convolution`, whose ``geometry`` packs the neuron's position and reach). The
-    buffer row's range of touched neurons grows to the whole output population.
-    """
-    p, a, b = cv_index[k], cv_index[k + 1], cv_index[k + 2]
-    n = 0
-    o, ow, kh, kw = cv_par[p, CV_O], cv_par[p, CV_OW], cv_par[p, CV_KH], cv_par[p, CV_KW]
-    sh, sw, post0, plane = cv_par[p, CV_SH], cv_par[p, CV_SW], cv_par[p, CV_POST0], cv_par[p, CV_OH] * ow
-    c, yy, xx = a & 0xFFFFF, (a >> 20) & 0xFFFFF, a >> 40
-    oy_lo, oy_end, ox_lo, ox_end = b & 0xFFFF, (b >> 16) & 0xFFFF, (b >> 32) & 0xFFFF, b >> 48
-    row = cv_par[p, CV_REC] * ring + later_slot(at, cv_par[p, CV_DELAY], ring)
-    row_any[row] = True
-    row_range[0, row] = min(row_range[0, row], post0)
-    row_range[1, row] = max(row_range[1, row], post0 + o * plane)
-    base = row * width + post0
-    w0 = cv_par[p, CV_WOFF] + c * kh * kw * o
-    for oy in range(oy_lo, oy_end):
-        for ox in range(ox_lo, ox_end):
-            wb = w0 + ((yy - oy * sh) * kw + xx - ox * sw) * o
-            pb = base + oy * ow + ox
-            for oc in range(o):
-                buf[np.uint64(pb + oc * plane)] += cv_w[np.uint64(wb + oc)]
-            n += o
-    return n
-
-
-@njit(cache=True, inline="always", _nrt=False)
-def emit(i, stamp, at, width, counts, stats, record, static, arrivals, conv, row_seg_ptr, seg_delay):
-    """Record the spike of neuron ``i`` at step ``stamp`` and schedule its arrivals.
-
-    Each static segment (one delay and receptor) adds its weights into one row of the
-    ring buffer ``buf`` (row ``receptor * ring + slot``, flattened, ``width`` entries
-    each) and marks the neuron blocks it touches in ``dirty`` (``row_any`` says that a
-    row has marks); each structured convolution the neuron feeds adds through
-    :func:`convolve`. ``at`` is ``stamp``'s ring slot (``stamp % ring``), so that the
-    slot of an arrival needs no division. ``record``, ``static``, ``arrivals`` and ``conv``
-    are a :class:`SpikeRecord`, :class:`StaticTables`, :class:`Arrivals` and :class:`ConvTables`.
-    """
-    rec_mask, rec_t, rec_i, rec_n = record
-    d_seg_ptr, d_seg_start, d_seg, d_post, d_w, d_blk_ptr, d_blk = static
-    buf, dirty, row_any, row_range, ev, ev_n = arrivals
-    cv_index, cv_par, cv_w = conv
-    counts[i] += 1
-    stats[ST_SPIKES] += 1
-    if rec_mask[i]:
-        n = rec_n[0]
-        rec_t[n] = stamp
-        rec_i[n] = i
-        rec_n[0] = n + 1
-    ring = ev_n.size
-    n_blocks = width >> BLOCK_SHIFT
-    for g in range(d_seg_ptr[i], d_seg_ptr[i + 1]):
-        row = d_seg[g, 1] * ring + later_slot(at, d_seg[g, 0], ring)
-        row_any[row] = True
-        base = np.uint64(row * width)  # unsigned indices: no negative-index wrap
-        lo, hi = np.uint64(d_seg_start[g]), np.uint64(d_seg_start[g + 1])
-        if d_seg[g, 2] >= 0:  # consecutive targets: a slice of the row, no target look-ups
-            dst = base + np.uint64(d_seg[g, 2]) - lo
-            for k in range(lo, hi):
-                buf[dst + k] += d_w[k]
-        else:
-            for k in range(lo, hi):
-                buf[base + d_post[k]] += d_w[k]
-        marks = np.uint64(row * n_blocks)
-        for b in range(np.uint64(d_blk_ptr[g]), np.uint64(d_blk_ptr[g + 1])):
-            dirty[marks + d_blk[b]] = True
-    stats[ST_SYN_EVENTS] += d_seg_start[d_seg_ptr[i + 1]] - d_seg_start[d_seg_ptr[i]]
-    first = counts.size + 1  # cv_index: pointers, then entries of three values
-    for e in range(cv_index[i], cv_index[i + 1]):
-        stats[ST_SYN_EVENTS] += convolve(first + 3 * e, at, cv_index, cv_par, cv_w, buf, row_any, row_range, ring, width)
-    for g in range(row_seg_ptr[i], row_seg_ptr[i + 1]):
-        due = later_slot(at, seg_delay[g], ring)
-        ev[due, ev_n[due]] = g
-        ev_n[due] += 1
-
-
-@njit(cache=True, inline="always", _nrt=False)
-def add_and_clear(buf, base, isyn, r, lo, hi):  # fmt: skip
-    """Add buffer entries ``base + lo .. base + hi`` to ``isyn[r, lo:hi]`` and set them to 0.
-
-    An entry that is exactly 0 leaves its synaptic state as it is (adding +0.0 would
-    turn a -0.0 into +0.0).
-    """
-    for q in range(np.uint64(lo), np.uint64(hi)):
-        x = buf[base + q]
-        s = isyn[r, q]
-        isyn[r, q] = s + x if x != 0.0 else s
-        buf[base + q] = 0.0
-
-
-@njit(cache=True, inline="always", _nrt=False)
-def deliver_static(slot, ring, n, buf, dirty, dirty_words, row_any, isyn, row_range):  # fmt: skip
-    """Add the static arrivals of ring slot ``slot`` to ``isyn`` and clear them.
-
-    First the row's range of neurons reached by structured convolutions, then the
-    marked blocks (entries the range has cleared add nothing), each with
-    :func:`add_and_clear`.
-    """
-    width = buf.size // row_any.size
-    n_blocks = dirty.size // row_any.size
-    block = width // n_blocks
-    for r in range(2):
-        row = r * ring + slot
-        if not row_any[row]:
-            continue
-        row_any[row] = False
-        base = np.uint64(row * width)
-        if row_range[0, row] < row_range[1, row]:
-            add_and_clear(buf, base, isyn, r, row_range[0, row], row_range[1, row])
-            row_range[0, row], row_range[1, row] = n, 0
-        marks = row * n_blocks
-        for word in range(marks >> 3, (marks + n_blocks) >> 3):
-            if dirty_words[word] == 0:
-                continue
-            dirty_words[word] = 0
-            for b in range((word << 3) - marks, (word << 3) - marks + 8):
-                lo = b * block
-                add_and_clear(buf, base, isyn, r, lo, max(lo, min(lo + block, n)))
-
-
-@njit(cache=True, _nrt=False)
-def run_steps(
-    j0, j1, dt, plastic_on, groups, n_updated, params, v, isyn, ie, ii, theta, ica, refr, flag, flag_words, counts,
-    buf, dirty, dirty_words, row_any, d_seg_ptr, d_seg_start, d_seg, d_post, d_w, d_blk_ptr, d_blk,
-    row_seg_ptr, seg_start, seg_delay, seg_proj, p_post, p_w, seg_xpre, seg_last,
-    post_ptr, post_syn, post_seg, post_rule, proj_inh, tr_lo, tr_hi, tr_shift, post_tr_ptr, post_tr_idx, trace_proj,
-    rules, pre_table, post_decay1, post_decay2, xpost1, xpost2, x_pre, ev, ev_n,
-    pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng,
-    rec_mask, rec_t, rec_i, rec_n, headroom, var_idx, var_code, var_out, stats, cv_index, cv_par, cv_w,
-    row_range,
-):  # fmt: skip
-    """Advance from step ``j0`` to ``j1`` (exclusive); return the step reached.
-
-    ``headroom`` is the most spikes one step can record; the loop stops before a
-    step that could overflow the record buffers. ``ie`` and ``ii`` are the rows of
-    ``isyn`` (excitatory and inhibitory synaptic state). ``flag`` holds one byte per neuron
-    (all 0 between steps), ``flag_words`` the same memory as 64-bit words; ``x_pre``
-    is scratch space for the largest number of plastic synapses onto one neuron.
-    """
-    ring = ev_n.size
-    n = v.size
-    cap = rec_t.size
-    width = buf.size // row_any.size
-    record = SpikeRecord(rec_mask, rec_t, rec_i, rec_n)
-    static = StaticTables(d_seg_ptr, d_seg_start, d_seg, d_post, d_w, d_blk_ptr, d_blk)
-    arrivals = Arrivals(buf, dirty, row_any, row_range, ev, ev_n)
-    conv = ConvTables(cv_index, cv_par, cv_w)
-    for j in range(j0, j1):
-        if rec_n[0] + headroom > cap:
-            return j
-        slot = j % ring
-        after = later_slot(slot, 1, ring)  # the slot of step j + 1
-        # 1. sources
-        for k in range(pois_idx.size):
-            if pois_next[k] == j:
-                i = pois_idx[k]
-                if pois_start[k] <= j < pois_end[k]:
-                    emit(i, j, slot, width, counts, stats, record, static, arrivals, conv, row_seg_ptr, seg_delay)
-                g = geometric_gap(rng, pois_logq[k])
-                pois_next[k] = NEVER if g == NEVER else j + 1 + g
-            elif pois_next[k] < j:  # window change or redraw in the past: draw forward
-                g = geometric_gap(rng, pois_logq[k])
-                pois_next[k] = NEVER if g == NEVER else j + g
-        while arr_ptr[0] < arr_step.size and arr_step[arr_ptr[0]] <= j:
-            if arr_step[arr_ptr[0]] == j:
-                src = arr_neuron[arr_ptr[0]]
-                emit(src, j, slot, width, counts, stats, record, static, arrivals, conv, row_seg_ptr, seg_delay)
-            arr_ptr[0] += 1
-        # 2. arrivals at plastic synapses (post traces hold their value at time j)
-        for e in range(ev_n[slot]):
-            g = ev[slot, e]
-            nxt = seg_start[ev[slot, e + 1] if e + 1 < ev_n[slot] else g]
-            stats[ST_PLASTIC_UPDATES] += arrive(g, nxt, j, dt, plastic_on, seg_start, seg_proj, p_post, p_w,
-                                                seg_xpre, seg_last, rules, pre_table, tr_shift, proj_inh, xpost1,
-                                                isyn)  # fmt: skip
-            stats[ST_SYN_EVENTS] += seg_start[g + 1] - seg_start[g]
-        ev_n[slot] = 0
-        # postsynaptic traces advance to the end of the step
-        decay_post_traces(rules, tr_lo, tr_hi, post_decay1, post_decay2, xpost1, xpost2)
-        # static arrivals
-        deliver_static(slot, ring, n, buf, dirty, dirty_words, row_any, isyn, row_range)
-        # 3. neurons, group by group; then each group's spikes in increasing index
-        stats[ST_NEURON_UPDATES] += n_updated
-        for grp in range(groups.shape[0]):
-            lo, hi, flags = groups[grp, G_LO], groups[grp, G_HI], groups[grp, G_FLAGS]
-            if groups[grp, G_KIND] == KIND_CURR:
-                n_spikes = update_curr(lo, hi, flags, params, v, ie, ii, ica, refr, flag)
-            else:
-                n_spikes = update_cond(lo, hi, flags, params, dt, plastic_on, v, ie, ii, theta, refr, flag)
-            word = lo >> 3
-            while n_spikes > 0:
-                if flag_words[word] != 0:
-                    for i in range(word << 3, (word << 3) + 8):
-                        if flag[i]:
-                            flag[i] = False
-                            n_spikes -= 1
-                            v[i] = params[lo, C_V_RESET]
-                            refr[i] = np.int64(params[lo, C_REFRAC] + params[lo, C_LOCK])
-                            ica[i] += params[lo, C_I_ALPHA]
-                            if plastic_on:
-                                theta[i] += params[lo, C_THETA_PLUS]
-                                stats[ST_PLASTIC_UPDATES] += potentiate(
-                                    i, j + 1, dt, post_ptr, post_syn, post_seg, post_rule, seg_proj, seg_xpre, seg_last,
-                                    p_w, rules, pre_table, tr_shift, xpost2, x_pre,
-                                )  # fmt: skip
-                            post_traces(i, post_tr_ptr, post_tr_idx, trace_proj, rules, xpost1, xpost2)
-                            emit(i, j + 1, after, width, counts, stats, record, static, arrivals, conv, row_seg_ptr, seg_delay)
-                word += 1
-        # 4. state recording
-        if var_idx.size:
-            row = j - j0
-            for r in range(var_idx.size):
-                i = var_idx[r]
-                c = var_code[r]
-                if c == VAR_V:
-                    var_out[row, r] = v[i]
-                elif c == VAR_EXC:
-                    var_out[row, r] = ie[i]
-                elif c == VAR_INH:
-                    var_out[row, r] = ii[i]
-                elif c == VAR_THETA:
-                    var_out[row, r] = theta[i]
-                else:
-                    var_out[row, r] = ica[i]
-        stats[ST_STEPS] += 1
-    return j1
+_STAMP = source_stamp(__file__, CACHE_UNIT)
+run_steps = _step_loop(_STAMP)
+draw_poisson = _poisson_draws(_STAMP)

@@ -23,10 +23,38 @@ and tested on their own.
 
 from __future__ import annotations
 
+from collections import namedtuple
+from collections.abc import Callable
+
 import numpy as np
 from numba import njit
 
-from .kernels import NEVER, ST_NEURON_UPDATES, ST_SPIKES, ST_STEPS, ST_SYN_EVENTS, geometric_gap
+from .kernel_cache import source_stamp
+from .kernel_delivery import record_spike
+from .kernel_layout import NEVER, ST_NEURON_UPDATES, ST_STEPS, ST_SYN_EVENTS
+from .kernel_sources import geometric_gap
+
+#: The modules whose code the step loops below are made of (numba caches them under a hash of
+#: all these files, see :mod:`.kernel_cache`).
+CACHE_UNIT = ("kernels_fixed", "kernel_layout", "kernel_sources", "kernel_delivery")
+
+# The arrays the loops work on, bundled by role (with :mod:`.kernel_layout`'s ``Sources``,
+# ``SpikeRecord`` and ``VarRecord``).
+#: Static synapses: per neuron its synapses (CSR pointer), each one's ring column
+#: (synapse group), integer value and delay in steps.
+FixedSynapses = namedtuple("FixedSynapses", "ptr gp val delay")
+#: The Loihi arithmetic: ``LOIHI1`` or ``LOIHI2``, bits of the decay factors, the accumulator
+#: and the current, and the shift of the synaptic input (Loihi 2's weight exponent offset).
+LoihiFormats = namedtuple("LoihiFormats", "variant decay_bits acc_bits u_bits act_shift")
+#: Loihi compartment state: current, voltage, refractory steps, input of this step.
+LoihiState = namedtuple("LoihiState", "u v ref q")
+#: Loihi synapse groups: the neuron each feeds and its weight exponent.
+SynapseGroups = namedtuple("SynapseGroups", "post exp")
+#: The SpiNNaker arithmetic: fraction bits of ``accum``, the ring buffer's saturation and the
+#: right shift of conductance input.
+SpinnakerFormats = namedtuple("SpinnakerFormats", "frac acc_max cond_shift")
+#: sPyNNaker LIF state: membrane, excitatory and inhibitory input, Ca2+ current, refractory timer.
+SpinnakerState = namedtuple("SpinnakerState", "v isyn_e isyn_i ica refr")
 
 #: Loihi arithmetic variants.
 LOIHI1, LOIHI2 = 0, 1
@@ -165,17 +193,16 @@ def ceil_fixed(x_raw: np.ndarray, frac: int) -> np.ndarray:
     return (x >> frac) + ((x & ((1 << frac) - 1)) > 0)
 
 
-# -- shared mechanics ---------------------------------------------------------------
-@njit(cache=True)
-def _emit(i, stamp, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_gp, s_val, s_delay, acc, acc_max, stats):  # fmt: skip
-    """Record the spike of ``i`` stamped ``stamp`` and add its synapses' values to the delay ring."""
-    counts[i] += 1
-    stats[ST_SPIKES] += 1
-    if rec_mask[i]:
-        n = rec_n[0]
-        rec_t[n] = stamp
-        rec_i[n] = i
-        rec_n[0] = n + 1
+# -- shared mechanics (compiled into the loops, not cached on their own) -----------------
+@njit
+def _emit(i, stamp, counts, stats, record, syn, acc, acc_max):
+    """Record the spike of ``i`` stamped ``stamp`` and add its synapses' values to the delay ring.
+
+    ``record`` and ``syn`` are a ``SpikeRecord`` and a :class:`FixedSynapses`; a sum above
+    ``acc_max`` saturates there (no saturation when ``acc_max`` is 0).
+    """
+    record_spike(i, stamp, counts, stats, record)
+    s_ptr, s_gp, s_val, s_delay = syn
     ring = acc.shape[0]
     for k in range(s_ptr[i], s_ptr[i + 1]):
         slot = (stamp + s_delay[k]) % ring
@@ -186,15 +213,14 @@ def _emit(i, stamp, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_gp, s_val, s
     stats[ST_SYN_EVENTS] += s_ptr[i + 1] - s_ptr[i]
 
 
-@njit(cache=True)
-def _sources(j, pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng,
-             counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_gp, s_val, s_delay, acc, acc_max, stats):  # fmt: skip
-    """Emit the Poisson and array spikes of step ``j`` (the draws of :func:`.kernels.run_steps`)."""
+@njit
+def _sources(j, sources, counts, stats, record, syn, acc, acc_max):
+    """Emit the Poisson and array spikes of step ``j`` (the draws of :func:`.kernels.run_steps`) through :func:`_emit`."""
+    pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng = sources
     for k in range(pois_idx.size):
         if pois_next[k] == j:
             if pois_start[k] <= j < pois_end[k]:
-                _emit(pois_idx[k], j, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_gp, s_val, s_delay, acc,
-                      acc_max, stats)  # fmt: skip
+                _emit(pois_idx[k], j, counts, stats, record, syn, acc, acc_max)
             g = geometric_gap(rng, pois_logq[k])
             pois_next[k] = NEVER if g == NEVER else j + 1 + g
         elif pois_next[k] < j:
@@ -202,146 +228,163 @@ def _sources(j, pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, 
             pois_next[k] = NEVER if g == NEVER else j + g
     while arr_ptr[0] < arr_step.size and arr_step[arr_ptr[0]] <= j:
         if arr_step[arr_ptr[0]] == j:
-            _emit(arr_neuron[arr_ptr[0]], j, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_gp, s_val, s_delay,
-                  acc, acc_max, stats)  # fmt: skip
+            _emit(arr_neuron[arr_ptr[0]], j, counts, stats, record, syn, acc, acc_max)
         arr_ptr[0] += 1
 
 
 # -- Loihi ---------------------------------------------------------------------------
-@njit(cache=True)
-def run_loihi(
-    j0, j1, variant, decay_bits, acc_bits, u_bits, act_shift, params, u, v, ref, q, counts,
-    s_ptr, s_gp, s_val, s_delay, acc, gp_post, gp_exp,
-    pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng,
-    rec_mask, rec_t, rec_i, rec_n, headroom, var_idx, var_out, stats,
-):  # fmt: skip
-    """Advance Loihi compartments from step ``j0`` to ``j1``; return the step reached.
+_STAMP = source_stamp(__file__, CACHE_UNIT)
 
-    Per step: the synaptic input of every synapse group arriving now is shifted by
-    its weight exponent (per group for ``LOIHI2``; already applied per weight for
-    ``LOIHI1``) and by ``act_shift``; then ``u = decay(u) + input``, ``v = decay(v) + u +
-    bias`` (with the variant's overflow rules), ``v`` held at 0 while refractory, a
-    spike when ``v > vth`` (then ``v = 0`` and ``ref - 1`` refractory steps).
-    """
-    n = u.size
-    ring = acc.shape[0]
-    cap = rec_t.size
-    for j in range(j0, j1):
-        if rec_n[0] + headroom > cap:
-            return j
-        slot = j % ring
-        _sources(j, pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng,
-                 counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_gp, s_val, s_delay, acc, 0, stats)  # fmt: skip
-        for g in range(gp_post.size):
-            x = acc[slot, g]
-            if x != 0:
-                q[gp_post[g]] += shift_floor(x, gp_exp[g]) << act_shift
-                acc[slot, g] = 0
-        for i in range(n):
-            p = params[i]
-            if p[L_ACTIVE] == 0:
-                continue
-            stats[ST_NEURON_UPDATES] += 1
-            qi = q[i]
-            q[i] = 0
-            if variant == LOIHI1:
-                qi = wrap_signed(qi, acc_bits)
-                ui = wrap_signed(decay_toward_zero(u[i], p[L_RU], decay_bits) + qi, u_bits)
-                u2 = wrap_signed(ui + p[L_BIAS], u_bits)
-            else:
-                ui = wrap_lava(decay_toward_zero(u[i], p[L_RU], decay_bits) + qi, u_bits)
-                u2 = ui + p[L_BIAS]
-            u[i] = ui
-            vi = decay_toward_zero(v[i], p[L_RV], decay_bits) + u2
-            vi = min(max(vi, p[L_VMIN]), p[L_VMAX])
-            if ref[i] > 0:
-                vi = 0
-            if vi > p[L_VTH]:
-                vi = 0
-                ref[i] = p[L_REF]
-                _emit(i, j + 1, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_gp, s_val, s_delay, acc, 0, stats)
-            if ref[i] > 0:
-                ref[i] -= 1
-            v[i] = vi
-        for r in range(var_idx.size):
-            var_out[j - j0, r] = v[var_idx[r]]
-        stats[ST_STEPS] += 1
-    return j1
+
+def _loihi_loop(stamp: int) -> Callable[..., int]:
+    """The Loihi step loop, cached under ``stamp`` (:func:`.kernel_cache.source_stamp` of ``CACHE_UNIT``)."""
+
+    @njit(cache=True)
+    def run_loihi(j0, j1, formats, params, state, groups, counts, syn, acc, sources, record, headroom, var, stats):
+        """Advance Loihi compartments from step ``j0`` to ``j1``; return the step reached.
+
+        Per step: the synaptic input of every synapse group arriving now is shifted by
+        its weight exponent (per group for ``LOIHI2``; already applied per weight for
+        ``LOIHI1``) and by ``act_shift``; then ``u = decay(u) + input``, ``v = decay(v) + u +
+        bias`` (with the variant's overflow rules), ``v`` held at 0 while refractory, a
+        spike when ``v > vth`` (then ``v = 0`` and ``ref - 1`` refractory steps). ``formats``,
+        ``state`` and ``groups`` are a :class:`LoihiFormats`, :class:`LoihiState` and
+        :class:`SynapseGroups`; ``params`` has the ``L_*`` columns; the recorded variable is ``v``.
+        """
+        stamp  # noqa: B018 - in numba's cache key (see .kernel_cache)
+        variant, decay_bits, acc_bits, u_bits, act_shift = formats
+        u, v, ref, q = state
+        gp_post, gp_exp = groups
+        rec_n, var_idx, var_out = record.n, var.idx, var.out
+        n = u.size
+        ring = acc.shape[0]
+        cap = record.t.size
+        for j in range(j0, j1):
+            if rec_n[0] + headroom > cap:
+                return j
+            slot = j % ring
+            _sources(j, sources, counts, stats, record, syn, acc, 0)
+            for g in range(gp_post.size):
+                x = acc[slot, g]
+                if x != 0:
+                    q[gp_post[g]] += shift_floor(x, gp_exp[g]) << act_shift
+                    acc[slot, g] = 0
+            for i in range(n):
+                p = params[i]
+                if p[L_ACTIVE] == 0:
+                    continue
+                stats[ST_NEURON_UPDATES] += 1
+                qi = q[i]
+                q[i] = 0
+                if variant == LOIHI1:
+                    qi = wrap_signed(qi, acc_bits)
+                    ui = wrap_signed(decay_toward_zero(u[i], p[L_RU], decay_bits) + qi, u_bits)
+                    u2 = wrap_signed(ui + p[L_BIAS], u_bits)
+                else:
+                    ui = wrap_lava(decay_toward_zero(u[i], p[L_RU], decay_bits) + qi, u_bits)
+                    u2 = ui + p[L_BIAS]
+                u[i] = ui
+                vi = decay_toward_zero(v[i], p[L_RV], decay_bits) + u2
+                vi = min(max(vi, p[L_VMIN]), p[L_VMAX])
+                if ref[i] > 0:
+                    vi = 0
+                if vi > p[L_VTH]:
+                    vi = 0
+                    ref[i] = p[L_REF]
+                    _emit(i, j + 1, counts, stats, record, syn, acc, 0)
+                if ref[i] > 0:
+                    ref[i] -= 1
+                v[i] = vi
+            for r in range(var_idx.size):
+                var_out[j - j0, r] = v[var_idx[r]]
+            stats[ST_STEPS] += 1
+        return j1
+
+    return run_loihi
+
+
+run_loihi = _loihi_loop(_STAMP)
 
 
 # -- SpiNNaker -----------------------------------------------------------------------
-@njit(cache=True)
-def run_spinnaker(
-    j0, j1, frac, acc_max, cond_shift, params, v, isyn_e, isyn_i, ica, refr, counts,
-    s_ptr, s_gp, s_val, s_delay, acc,
-    pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng,
-    rec_mask, rec_t, rec_i, rec_n, headroom, var_idx, var_code, var_out, stats,
-):  # fmt: skip
-    """Advance sPyNNaker LIF neurons from step ``j0`` to ``j1``; return the step reached.
+def _spinnaker_loop(stamp: int) -> Callable[..., int]:
+    """The SpiNNaker step loop, cached under ``stamp``."""
 
-    Ring-buffer slot ``2 i`` holds neuron ``i``'s excitatory input, ``2 i + 1`` its
-    inhibitory input (16-bit saturating sums of weights). Per neuron and step, in
-    sPyNNaker's order: the arriving sums, shifted left by the synapse type's shift,
-    are added to the synaptic inputs scaled by ``init``; the Ca2+ current decays; unless
-    refractory the membrane takes the closed-form step ``v = a - exp_TC (a - v)``,
-    ``a = I R + v_rest``; ``v >= v_thresh`` spikes (``v = v_reset``, refractory timer,
-    ``I_ca2 += i_alpha``); the synaptic inputs decay.
-    """
-    n = v.size
-    ring = acc.shape[0]
-    cap = rec_t.size
-    for j in range(j0, j1):
-        if rec_n[0] + headroom > cap:
-            return j
-        slot = j % ring
-        _sources(j, pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng,
-                 counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_gp, s_val, s_delay, acc, acc_max, stats)  # fmt: skip
-        for i in range(n):
-            p = params[i]
-            if p[S_ACTIVE] == 0:
-                continue
-            stats[ST_NEURON_UPDATES] += 1
-            we = acc[slot, 2 * i]
-            wi = acc[slot, 2 * i + 1]
-            if we != 0:
-                isyn_e[i] = wrap32(isyn_e[i] + decay_u032(we << p[S_SHIFT_E], p[S_INIT_E]))
-                acc[slot, 2 * i] = 0
-            if wi != 0:
-                isyn_i[i] = wrap32(isyn_i[i] + decay_u032(wi << p[S_SHIFT_I], p[S_INIT_I]))
-                acc[slot, 2 * i + 1] = 0
-            vi = v[i]
-            if p[S_COND] == 1:
-                ge = isyn_e[i] >> cond_shift
-                gi = isyn_i[i] >> cond_shift
-                total = wrap32(mul_trunc(ge, p[S_E_REV_E] - vi, frac) + mul_trunc(gi, p[S_E_REV_I] - vi, frac))
-            else:
-                total = wrap32(isyn_e[i] - isyn_i[i])
-            ica[i] = mul_trunc(ica[i], p[S_EXP_CA], frac)
-            if refr[i] <= 0:
-                inp = wrap32(total - ica[i] + p[S_I_OFFSET])
-                alpha = wrap32(mul_round(inp, p[S_R], frac) + p[S_V_REST])
-                vi = wrap32(alpha - mul_round(p[S_EXP_TC], wrap32(alpha - vi), frac))
-            else:
-                refr[i] -= 1
-            if vi >= p[S_V_THRESH]:
-                vi = p[S_V_RESET]
-                refr[i] = p[S_T_REFRACT]
-                ica[i] = wrap32(ica[i] + p[S_I_ALPHA])
-                _emit(i, j + 1, counts, rec_mask, rec_t, rec_i, rec_n, s_ptr, s_gp, s_val, s_delay, acc, acc_max,
-                      stats)  # fmt: skip
-            v[i] = vi
-            isyn_e[i] = decay_u032(isyn_e[i], p[S_DEC_E])
-            isyn_i[i] = decay_u032(isyn_i[i], p[S_DEC_I])
-        for r in range(var_idx.size):
-            i = var_idx[r]
-            c = var_code[r]
-            if c == 0:
-                var_out[j - j0, r] = v[i]
-            elif c == 1:
-                var_out[j - j0, r] = isyn_e[i]
-            elif c == 2:
-                var_out[j - j0, r] = isyn_i[i]
-            else:
-                var_out[j - j0, r] = ica[i]
-        stats[ST_STEPS] += 1
-    return j1
+    @njit(cache=True)
+    def run_spinnaker(j0, j1, formats, params, state, counts, syn, acc, sources, record, headroom, var, stats):
+        """Advance sPyNNaker LIF neurons from step ``j0`` to ``j1``; return the step reached.
+
+        Ring-buffer slot ``2 i`` holds neuron ``i``'s excitatory input, ``2 i + 1`` its
+        inhibitory input (16-bit saturating sums of weights). Per neuron and step, in
+        sPyNNaker's order: the arriving sums, shifted left by the synapse type's shift,
+        are added to the synaptic inputs scaled by ``init``; the Ca2+ current decays; unless
+        refractory the membrane takes the closed-form step ``v = a - exp_TC (a - v)``,
+        ``a = I R + v_rest``; ``v >= v_thresh`` spikes (``v = v_reset``, refractory timer,
+        ``I_ca2 += i_alpha``); the synaptic inputs decay. ``formats`` and ``state`` are a
+        :class:`SpinnakerFormats` and :class:`SpinnakerState`; ``params`` has the ``S_*`` columns.
+        """
+        stamp  # noqa: B018 - in numba's cache key (see .kernel_cache)
+        frac, acc_max, cond_shift = formats
+        v, isyn_e, isyn_i, ica, refr = state
+        rec_n, var_idx, var_code, var_out = record.n, var.idx, var.code, var.out
+        n = v.size
+        ring = acc.shape[0]
+        cap = record.t.size
+        for j in range(j0, j1):
+            if rec_n[0] + headroom > cap:
+                return j
+            slot = j % ring
+            _sources(j, sources, counts, stats, record, syn, acc, acc_max)
+            for i in range(n):
+                p = params[i]
+                if p[S_ACTIVE] == 0:
+                    continue
+                stats[ST_NEURON_UPDATES] += 1
+                we = acc[slot, 2 * i]
+                wi = acc[slot, 2 * i + 1]
+                if we != 0:
+                    isyn_e[i] = wrap32(isyn_e[i] + decay_u032(we << p[S_SHIFT_E], p[S_INIT_E]))
+                    acc[slot, 2 * i] = 0
+                if wi != 0:
+                    isyn_i[i] = wrap32(isyn_i[i] + decay_u032(wi << p[S_SHIFT_I], p[S_INIT_I]))
+                    acc[slot, 2 * i + 1] = 0
+                vi = v[i]
+                if p[S_COND] == 1:
+                    ge = isyn_e[i] >> cond_shift
+                    gi = isyn_i[i] >> cond_shift
+                    total = wrap32(mul_trunc(ge, p[S_E_REV_E] - vi, frac) + mul_trunc(gi, p[S_E_REV_I] - vi, frac))
+                else:
+                    total = wrap32(isyn_e[i] - isyn_i[i])
+                ica[i] = mul_trunc(ica[i], p[S_EXP_CA], frac)
+                if refr[i] <= 0:
+                    inp = wrap32(total - ica[i] + p[S_I_OFFSET])
+                    alpha = wrap32(mul_round(inp, p[S_R], frac) + p[S_V_REST])
+                    vi = wrap32(alpha - mul_round(p[S_EXP_TC], wrap32(alpha - vi), frac))
+                else:
+                    refr[i] -= 1
+                if vi >= p[S_V_THRESH]:
+                    vi = p[S_V_RESET]
+                    refr[i] = p[S_T_REFRACT]
+                    ica[i] = wrap32(ica[i] + p[S_I_ALPHA])
+                    _emit(i, j + 1, counts, stats, record, syn, acc, acc_max)
+                v[i] = vi
+                isyn_e[i] = decay_u032(isyn_e[i], p[S_DEC_E])
+                isyn_i[i] = decay_u032(isyn_i[i], p[S_DEC_I])
+            for r in range(var_idx.size):
+                i = var_idx[r]
+                c = var_code[r]
+                if c == 0:
+                    var_out[j - j0, r] = v[i]
+                elif c == 1:
+                    var_out[j - j0, r] = isyn_e[i]
+                elif c == 2:
+                    var_out[j - j0, r] = isyn_i[i]
+                else:
+                    var_out[j - j0, r] = ica[i]
+            stats[ST_STEPS] += 1
+        return j1
+
+    return run_spinnaker
+
+
+run_spinnaker = _spinnaker_loop(_STAMP)

@@ -19,9 +19,10 @@ from neurovpr.runtime.simulation import Simulation
 if TYPE_CHECKING:
     from neurovpr.hardware.check import HardwareTarget
 
+from . import kernel_layout as kl
 from . import kernels
 from .delivery import split_static
-from .kernels import BLOCK_SHIFT, C_I_CA_INIT, C_V_INIT, CV_WOFF, KIND_POISSON, VAR_CODES
+from .kernel_layout import BLOCK_SHIFT, C_I_CA_INIT, C_V_INIT, CV_WOFF, KIND_POISSON, VAR_CODES
 from .translation import build_layout
 
 _PAST = -(2**40)
@@ -84,7 +85,7 @@ class ReferenceSimulation(Simulation):
                 self._pois_rate[sl] = per_neuron(cell.rate, pop.size)
                 first, end = window_steps(cell.start, cell.duration, dt)
                 self._pois_start[sl] = first
-                self._pois_end[sl] = kernels.NEVER if math.isinf(end) else int(end)
+                self._pois_end[sl] = kl.NEVER if math.isinf(end) else int(end)
                 pos += pop.size
             elif isinstance(cell, SpikeSourceArray):
                 self._arrays[name] = cell
@@ -219,28 +220,50 @@ class ReferenceSimulation(Simulation):
         j = j0
         while j < j1:
             reached = kernels.run_steps(
-                j, j1, self._dt, self._plastic, lay.groups, lay.n_updated, lay.params, self._v, self._isyn,
-                self._ie, self._ii, self._theta, self._ica, self._refr, self._flag, self._flag_words, self._counts,
-                self._buf, self._dirty, self._dirty_words, self._row_any, lay.d_seg_ptr, lay.d_seg_start,
-                lay.d_seg, lay.d_post, lay.d_w, lay.d_blk_ptr, lay.d_blk,
-                lay.row_seg_ptr, lay.seg_start, lay.seg_delay, lay.seg_proj, lay.p_post, lay.p_w,
-                self._seg_xpre, self._seg_last, lay.post_ptr, lay.post_syn, lay.post_seg, lay.post_rule,
-                lay.proj_inh,
-                lay.tr_lo, lay.tr_hi, lay.tr_shift, lay.post_tr_ptr, lay.post_tr_idx, lay.trace_proj, lay.rules,
-                lay.pre_table, lay.post_decay1, lay.post_decay2, self._xpost1, self._xpost2, self._x_pre,
-                self._ev, self._ev_n,
-                self._pois_idx, self._pois_logq, self._pois_next, self._pois_start, self._pois_end,
-                self._arr_step, self._arr_neuron, self._arr_ptr, self._rng,
-                self._rec_mask, self._rec_t, self._rec_i, self._rec_n, self._headroom,
-                self._var_idx, self._var_code, var_out[j - j0 :], self._stats, lay.cv_index,
-                lay.cv_par, lay.cv_w, self._row_range,
-            )  # fmt: skip
+                j, j1, self._dt, self._plastic, self._headroom, lay.n_updated, *self._bundles(var_out[j - j0 :]), self._stats
+            )
             self._flush_spikes()
             j = reached
         self._step = j1
         if self._var_idx.size:
             for col, key in enumerate(self._var_keys):
                 self._recorders[key].append(var_out[:, col])
+
+    def _bundles(self, var_out: np.ndarray) -> tuple:
+        """The arrays :func:`.kernels.run_steps` works on, bundled by role (built per run: inputs may replace arrays)."""
+        lay = self._lay
+        return (
+            kl.Neurons(
+                lay.groups, lay.params, self._v, self._isyn, self._ie, self._ii, self._theta, self._ica, self._refr,
+                self._flag, self._flag_words, self._counts,
+            ),
+            self._spike_record(),
+            kl.StaticTables(lay.d_seg_ptr, lay.d_seg_start, lay.d_seg, lay.d_post, lay.d_w, lay.d_blk_ptr, lay.d_blk),
+            kl.Arrivals(self._buf, self._dirty, self._dirty_words, self._row_any, self._row_range, self._ev, self._ev_n),
+            kl.ConvTables(lay.cv_index, lay.cv_par, lay.cv_w),
+            kl.PlasticTables(
+                lay.row_seg_ptr, lay.seg_start, lay.seg_delay, lay.seg_proj, lay.p_post, lay.p_w, lay.post_ptr,
+                lay.post_syn, lay.post_seg, lay.post_rule, lay.proj_inh,
+            ),
+            kl.Traces(
+                lay.rules, lay.pre_table, self._seg_xpre, self._seg_last, lay.tr_lo, lay.tr_hi, lay.tr_shift,
+                lay.post_tr_ptr, lay.post_tr_idx, lay.trace_proj, lay.post_decay1, lay.post_decay2, self._xpost1,
+                self._xpost2, self._x_pre,
+            ),
+            self._sources(),
+            kl.VarRecord(self._var_idx, self._var_code, var_out),
+        )  # fmt: skip
+
+    def _sources(self) -> kl.Sources:
+        """The spike sources' arrays, as the compiled loops take them."""
+        return kl.Sources(
+            self._pois_idx, self._pois_logq, self._pois_next, self._pois_start, self._pois_end, self._arr_step,
+            self._arr_neuron, self._arr_ptr, self._rng,
+        )  # fmt: skip
+
+    def _spike_record(self) -> kl.SpikeRecord:
+        """The spike record buffers, as the compiled loops take them."""
+        return kl.SpikeRecord(self._rec_mask, self._rec_t, self._rec_i, self._rec_n)
 
     def _flush_spikes(self) -> None:
         m = int(self._rec_n[0])
@@ -332,9 +355,9 @@ class ReferenceSimulation(Simulation):
     def _statistics(self) -> dict[str, int]:
         s = self._stats
         return {
-            "steps": int(s[kernels.ST_STEPS]),
-            "neuron_updates": int(s[kernels.ST_NEURON_UPDATES]),
-            "spikes": int(s[kernels.ST_SPIKES]),
-            "synaptic_events": int(s[kernels.ST_SYN_EVENTS]),
-            "plastic_updates": int(s[kernels.ST_PLASTIC_UPDATES]),
+            "steps": int(s[kl.ST_STEPS]),
+            "neuron_updates": int(s[kl.ST_NEURON_UPDATES]),
+            "spikes": int(s[kl.ST_SPIKES]),
+            "synaptic_events": int(s[kl.ST_SYN_EVENTS]),
+            "plastic_updates": int(s[kl.ST_PLASTIC_UPDATES]),
         }

@@ -34,7 +34,7 @@ from neurovpr.ir.synapses import DiehlCookSTDP, MultiplicativeWeightDependence, 
 
 from .convolution import ConvSpec, conv_spec, merge
 from .delivery import split_static
-from .kernels import (
+from .kernel_layout import (
     C_CM,
     C_E_REV_E,
     C_E_REV_I,

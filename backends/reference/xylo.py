@@ -33,6 +33,8 @@ from neurovpr.hardware.xylo import xylo_layout
 from neurovpr.ir.cells import IF_curr_exp
 from neurovpr.ir.network import Network
 
+from . import kernel_layout as kl
+from . import kernels_fixed as kf
 from . import kernels_xylo as kx
 from .fixed_point import FixedPointSimulation
 from .quantisation import FixedLayout
@@ -135,13 +137,12 @@ class XyloSimulation(FixedPointSimulation):
         j, j1 = self._step, self._step + n_steps
         raw = np.zeros((n_steps, self._var_idx.size))
         while j < j1:
+            syn = kf.FixedSynapses(self._lay.s_ptr, fx.s_gp, fx.s_val, self._lay.s_delay)
+            var = kl.VarRecord(self._var_idx, np.zeros_like(self._var_idx), raw[j - self._step :])  # Xylo records v only
             reached = kx.run_xylo(
-                j, j1, self._spec.formats.voltage_bits, fx.params, self._v_i, self._isyn_i, self._counts,
-                self._lay.s_ptr, fx.s_gp, fx.s_val, self._lay.s_delay, self._acc, self._pois_idx, self._pois_logq,
-                self._pois_next, self._pois_start, self._pois_end, self._arr_step, self._arr_neuron, self._arr_ptr,
-                self._rng, self._rec_mask, self._rec_t, self._rec_i, self._rec_n, headroom, self._var_idx,
-                raw[j - self._step :], self._stats,
-            )  # fmt: skip
+                j, j1, self._spec.formats.voltage_bits, fx.params, self._v_i, self._isyn_i, self._counts, syn, self._acc,
+                self._sources(), self._spike_record(), headroom, var, self._stats,
+            )
             self._flush_spikes()
             j = reached
         for col, key in enumerate(self._var_keys):

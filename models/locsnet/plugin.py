@@ -11,7 +11,6 @@ activity (for ``neurovpr energy``).
 
 from __future__ import annotations
 
-import argparse
 import dataclasses
 import time
 from dataclasses import dataclass
@@ -21,63 +20,70 @@ from typing import Any, Literal
 import numpy as np
 
 from neurovpr.apps.modelapi import ModelPlugin
+from neurovpr.apps.options import option
 from neurovpr.apps.requests import EvalRequest, TrainRequest, check_fields
+from neurovpr.apps.rundir import RunDir
 from neurovpr.errors import ValidationError
+
+from .conversion import SpikingParameters
+from .settings import DEFAULT_TRAINING
 
 __all__ = ["LoCSNetPlugin", "LoCSNetTrainOptions", "LoCSNetEvalOptions", "MODEL"]
 
 _PRESETS = ("paper", "small")
-
-
-def _positive_int(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text}")
-    return value
+_TRAINING = DEFAULT_TRAINING
+_SPIKING = SpikingParameters()
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class LoCSNetTrainOptions:
-    """LoCS-Net's own ``train`` options (``neurovpr train --model locsnet --help`` says what each does)."""
+    """LoCS-Net's own ``train`` options (``neurovpr train --model locsnet --help`` says what each does).
 
-    preset: Literal["paper", "small"] = "paper"
-    frames_per_place: int = 1
-    positions: Path | None = None
-    tile_size: float = 25.0
-    min_tile_images: int = 2
-    epochs: int = 40
-    batch_size: int = 64
-    learning_rate: float = 5e-3
-    weight_decay: float = 1e-5
-    rate_penalty: float = 0.0
-    quantise: str | None = None
-    place_loss: Literal["current", "rate"] = "current"
-    checkpoint: Path | None = None
-    no_patch_norm: bool = False
-    conv_bias: bool = False
-    threads: int = 1
-    presentation: float = 50.0
-    input_coding: Literal["poisson", "regular"] = "poisson"
-    input_rate: float = 250.0
-    tau_syn: float = 1.0
-    dt: float = 1.0
-    feature_groups: int | None = None
-    calibration_images: int = 100
+    The training hyper-parameters take their defaults from :class:`.settings.TrainingSettings`
+    and the spiking ones from :class:`.conversion.SpikingParameters`.
+    """
+
+    preset: Literal["paper", "small"] = option("paper", "layer sizes: paper (56x56, 8/16/32 filters) or small")
+    frames_per_place: int = option(1, "aligned traverses: consecutive frames per place")
+    positions: Path | None = option(None, "CSV set,index,x,y (metres): label places by grid tiles")
+    tile_size: float = option(25.0, "grid tile side in metres")
+    min_tile_images: int = option(2, "drop tiles with fewer reference images")
+    epochs: int = option(_TRAINING.epochs, "training epochs")
+    batch_size: int = option(_TRAINING.batch_size, "batch size")
+    learning_rate: float = option(_TRAINING.learning_rate, "peak learning rate of Adam")
+    weight_decay: float = option(_TRAINING.weight_decay, "L2 weight regularisation")
+    rate_penalty: float = option(_TRAINING.rate_penalty, "L2 penalty on hidden activations")
+    quantise: str | None = option(_TRAINING.quantise, "quantisation-aware training to this hwspec's weights", metavar="HW")
+    place_loss: Literal["current", "rate"] = option(_TRAINING.place_loss, "what the loss sees of the place layer")
+    checkpoint: Path | None = option(None, "start from this model.pt (same architecture)")
+    no_patch_norm: bool = option(False, "plain grayscale input instead of patch normalisation")
+    conv_bias: bool = option(False, "keep biases in the conv layers (the paper removed them)")
+    threads: int = option(_TRAINING.threads, "torch threads (1: fastest on a shared 2-core machine)")
+    presentation: float = option(_SPIKING.presentation, "presentation window per image, ms")
+    input_coding: Literal["poisson", "regular"] = option(_SPIKING.input_coding, "input spikes")
+    input_rate: float = option(_SPIKING.input_rate, "rate of a pixel of value 1, Hz")
+    tau_syn: float = option(_SPIKING.tau_syn, "synaptic time constant, ms")
+    dt: float = option(_SPIKING.dt, "time step, ms (1 is Loihi's)")
+    feature_groups: int | None = option(
+        None, "conv3 as this many populations, for Loihi's output-axon limit", default_text="8 for paper, 1 for small"
+    )
+    calibration_images: int = option(100, "training images to calibrate the place layer on")
 
     def __post_init__(self) -> None:
         check_fields(self)
-        if self.min_tile_images < 1:
-            raise ValidationError(f"--min-tile-images is {self.min_tile_images}; it must be >= 1.")
+        for name in ("frames_per_place", "min_tile_images") + (("feature_groups",) if self.feature_groups is not None else ()):
+            if getattr(self, name) < 1:
+                raise ValidationError(f"LoCSNetTrainOptions.{name} is {getattr(self, name)}; it must be >= 1.")
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class LoCSNetEvalOptions:
     """LoCS-Net's own ``eval`` options."""
 
-    queries: int | None = None
-    hardware: str | None = None
-    eval_positions: Path | None = None
-    no_plots: bool = False
+    queries: int | None = option(None, "evaluate this many evenly spaced queries", default_text="all")
+    hardware: str | None = option(None, "compile with this hwspec (backends that emulate it)", flag="--hw")
+    eval_positions: Path | None = option(None, "CSV of positions for grid labels", default_text="training's")
+    no_plots: bool = option(False, "do not write PNG plots")
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -91,48 +97,6 @@ class LoCSNetPlugin(ModelPlugin):
     train_options = LoCSNetTrainOptions
     eval_options = LoCSNetEvalOptions
 
-    # -- arguments ------------------------------------------------------------------------
-    def add_train_arguments(self, parser: argparse.ArgumentParser) -> None:
-        """Options of ``neurovpr train --model locsnet``."""
-        a = parser.add_argument
-        a("--preset", choices=_PRESETS, default="paper", help="layer sizes: paper (56x56, 8/16/32 filters) or small")
-        a("--frames-per-place", type=_positive_int, default=1, help="aligned traverses: consecutive frames per place (1)")
-        a("--positions", type=Path, default=None, help="CSV set,index,x,y (metres): label places by grid tiles")
-        a("--tile-size", type=float, default=25.0, help="grid tile side in metres (25)")
-        a("--min-tile-images", type=_positive_int, default=2, help="drop tiles with fewer reference images (2)")
-        a("--epochs", type=_positive_int, default=40, help="training epochs (40)")
-        a("--batch-size", type=_positive_int, default=64, help="batch size (64)")
-        a("--learning-rate", type=float, default=5e-3, help="peak learning rate of Adam (5e-3)")
-        a("--weight-decay", type=float, default=1e-5, help="L2 weight regularisation (1e-5)")
-        a("--rate-penalty", type=float, default=0.0, help="L2 penalty on hidden activations (0)")
-        a("--quantise", metavar="HW", default=None, help="quantisation-aware training to this hwspec's weights")
-        a("--place-loss", choices=("current", "rate"), default="current", help="what the loss sees of the place layer")
-        a("--checkpoint", type=Path, default=None, help="start from this model.pt (same architecture)")
-        a("--no-patch-norm", action="store_true", help="plain grayscale input instead of patch normalisation")
-        a("--conv-bias", action="store_true", help="keep biases in the conv layers (the paper removed them)")
-        a("--threads", type=_positive_int, default=1, help="torch threads (1: fastest on a shared 2-core machine)")
-        self._spiking_arguments(parser)
-        a("--calibration-images", type=int, default=100, help="training images to calibrate the place layer on (100)")
-
-    def add_eval_arguments(self, parser: argparse.ArgumentParser) -> None:
-        """Options of ``neurovpr eval`` for a LoCS-Net run."""
-        a = parser.add_argument
-        a("--queries", type=_positive_int, default=None, help="evaluate this many evenly spaced queries (all)")
-        a("--hw", dest="hardware", default=None, help="compile with this hwspec (backends that emulate it)")
-        a("--eval-positions", type=Path, default=None, help="CSV of positions for grid labels (default: training's)")
-        a("--no-plots", action="store_true", help="do not write PNG plots")
-
-    @staticmethod
-    def _spiking_arguments(parser: argparse.ArgumentParser) -> None:
-        a = parser.add_argument
-        a("--presentation", type=float, default=50.0, help="presentation window per image, ms (50)")
-        a("--input-coding", choices=("poisson", "regular"), default="poisson", help="input spikes (poisson)")
-        a("--input-rate", type=float, default=250.0, help="rate of a pixel of value 1, Hz (250)")
-        a("--tau-syn", type=float, default=1.0, help="synaptic time constant, ms (1)")
-        a("--dt", type=float, default=1.0, help="time step, ms (1, Loihi's)")
-        a("--feature-groups", type=int, default=None,
-          help="conv3 as this many populations, for Loihi's output-axon limit (default: 8 for paper, 1 for small)")
-
     # -- train ----------------------------------------------------------------------------
     def run_train(self, request: TrainRequest) -> dict[str, Any]:
         """Train into ``request.out``; see the module docstring."""
@@ -144,7 +108,7 @@ class LoCSNetPlugin(ModelPlugin):
 
         t_start = time.perf_counter()
         out = Path(request.out)
-        if (out / "run.json").is_file():
+        if RunDir(out).finished:
             if request.resume:
                 from .runs import load_run
 

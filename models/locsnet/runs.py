@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 import neurovpr as nv
-from neurovpr.apps.modelapi import read_run_info
+from neurovpr.apps.rundir import NETWORK_FILE, RunDir
 from neurovpr.errors import ValidationError
 from neurovpr.fileio import atomic_write_bytes, atomic_write_text
 
@@ -41,7 +41,7 @@ __all__ = ["RUN_FORMAT", "FILES", "RunData", "write_run", "load_run", "load_chec
 RUN_FORMAT = "neurovpr-locsnet-run/1"
 #: File names inside a run directory.
 FILES = {
-    "network": "network.h5",
+    "network": NETWORK_FILE,
     "architecture": "architecture.json",
     "labels": "places.npz",
     "checkpoint": "model.pt",
@@ -105,34 +105,32 @@ def write_run(
     state_dict: dict[str, Any] | None,
 ) -> Path:
     """Write a complete run directory; ``run.json`` (from ``info``) goes last."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    tmp_net = out / f".{FILES['network']}.tmp"
-    nv.save(network, tmp_net)
-    tmp_net.replace(out / FILES["network"])
-    atomic_write_text(out / FILES["architecture"],
+    run = RunDir(out)
+    run.save_network(network)
+    atomic_write_text(run.part(FILES["architecture"]),
                       json.dumps({"architecture": arch.to_dict(), "spiking": spiking.to_dict()}, indent=2))
-    atomic_write_bytes(out / FILES["labels"], _npz_bytes(labels.to_arrays()))
+    atomic_write_bytes(run.part(FILES["labels"]), _npz_bytes(labels.to_arrays()))
     files = dict(FILES)
     if state_dict is not None:
-        save_checkpoint(out / FILES["checkpoint"], state_dict)
+        save_checkpoint(run.part(FILES["checkpoint"]), state_dict)
     else:
         files.pop("checkpoint")
     record = {"model": "locsnet", "format": RUN_FORMAT, "dt_ms": spiking.dt, **info, "files": files}
-    atomic_write_text(out / "run.json", json.dumps(record, indent=2))
-    return out
+    run.write_info(record)
+    return run.path
 
 
 def load_run(run_dir: str | Path) -> RunData:
     """Read and check a run directory (architecture, network, labels)."""
-    path = Path(run_dir)
-    info = read_run_info(path)
+    run = RunDir(run_dir)
+    path = run.path
+    info = run.read_info()
     if info.get("model") != "locsnet" or info.get("format") != RUN_FORMAT:
         raise ValidationError(
             f"run directory {path} holds a {info.get('model')!r} run of format {info.get('format')!r}, "
             f"not a LoCS-Net run ({RUN_FORMAT})."
         )
-    arch_path = path / FILES["architecture"]
+    arch_path = run.part(FILES["architecture"])
     try:
         data = json.loads(arch_path.read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -141,12 +139,9 @@ def load_run(run_dir: str | Path) -> RunData:
         raise ValidationError(f"{arch_path} must hold a JSON object.")
     arch = Architecture.from_dict(data.get("architecture"), where=str(arch_path))
     spiking = SpikingParameters.from_dict(data.get("spiking"), where=f"{arch_path} spiking parameters")
-    net_path = path / FILES["network"]
-    if not net_path.is_file():
-        raise ValidationError(f"run directory {path} has no {FILES['network']}.")
-    network = nv.load(net_path)
+    network = run.load_network()
     params = trained_parameters(network, arch, spiking)
-    labels_path = path / FILES["labels"]
+    labels_path = run.part(FILES["labels"])
     try:
         with np.load(labels_path, allow_pickle=False) as npz:
             labels = PlaceLabels.from_arrays({k: npz[k] for k in npz.files})

@@ -28,6 +28,7 @@ from neurovpr.errors import ValidationError
 
 from .architecture import LAYER_NAMES, Architecture
 from .quantise import WeightFormat
+from .settings import PLACE_LOSSES
 
 try:
     import torch
@@ -37,9 +38,6 @@ except ImportError as exc:  # pragma: no cover - depends on the environment
     raise ImportError("LoCS-Net training needs torch: pip install torch==2.13.0 (the 'locsnet' extra).") from exc
 
 __all__ = ["softlif", "fake_quantise", "LoCSNetTorch", "PLACE_LOSSES", "to_numpy_parameters", "load_state_dict_checked"]
-
-#: What the cross-entropy sees of the place layer.
-PLACE_LOSSES = ("current", "rate")
 
 
 class _SoftLIF(torch.autograd.Function):

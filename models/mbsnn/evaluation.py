@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-import neurovpr as nv
+from neurovpr.apps.rundir import RunDir
 from neurovpr.data.events import PNSpikes, pn_frames
 from neurovpr.errors import FileFormatError, ValidationError
 from neurovpr.evaluation.metrics import auc_roc, roc
@@ -31,7 +31,7 @@ from neurovpr.models.route_baselines import perfect_memory_familiarity, seqslam_
 from .model import compile_mbsnn, familiarity, naive_weights, present, segment_labels
 from .network import KC_KC, POPULATIONS
 from .plots import plot_familiarity, plot_mbon_traces, plot_roc_curves
-from .training import NETWORK_FILE, SEGMENT_FILE, load_recording, load_spikes, pn_grid
+from .training import SEGMENT_FILE, load_recording, load_spikes, pn_grid
 
 __all__ = ["baseline_scores", "evaluate", "score"]
 
@@ -112,7 +112,7 @@ def evaluate(
         trim = bool(info.get("trim_inactive", True))
         train_backend = str(info["backend"])
     except (KeyError, TypeError, ValueError) as exc:
-        raise FileFormatError(f"{run_dir / 'run.json'} lacks the mbsnn setting {exc}.") from None
+        raise FileFormatError(f"{RunDir(run_dir).info_file} lacks the mbsnn setting {exc}.") from None
     backend = backend or train_backend
     data = Path(data if data is not None else info["data"])
     test = load_recording(data, n_pn=n_pn, trim=trim, stretch=stretch, what="test recording")
@@ -122,13 +122,14 @@ def evaluate(
             f"the learned segment {start}:{end} covers {'all' if labels.any() else 'none'} of the {windows} windows; "
             "use more windows."
         )
-    network = nv.load(run_dir / NETWORK_FILE)
+    run = RunDir(run_dir)
+    network = run.load_network()
     missing = [name for name in POPULATIONS if name not in network.populations]
     if missing:
-        raise FileFormatError(f"{run_dir / NETWORK_FILE} is not a mushroom body: it lacks population(s) {', '.join(missing)}.")
+        raise FileFormatError(f"{run.network_file} is not a mushroom body: it lacks population(s) {', '.join(missing)}.")
     if network.populations["input"].size != n_pn:
-        raise FileFormatError(f"{run_dir / NETWORK_FILE} has {network.populations['input'].size} inputs, run.json says {n_pn}.")
-    learned_segment = load_spikes(run_dir / SEGMENT_FILE)
+        raise FileFormatError(f"{run.network_file} has {network.populations['input'].size} inputs, run.json says {n_pn}.")
+    learned_segment = load_spikes(run.part(SEGMENT_FILE))
     sim = compile_mbsnn(network, dt=dt, backend=backend, seed=seed)
     t0 = time.perf_counter()
     after = present(sim, test, learn=False, progress="test, trained" if progress else None)

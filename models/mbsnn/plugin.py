@@ -9,12 +9,12 @@ SeqSLAM and Perfect Memory baselines.
 
 from __future__ import annotations
 
-import argparse
 import sys
 from dataclasses import dataclass
 from typing import Any
 
 from neurovpr.apps.modelapi import ModelPlugin
+from neurovpr.apps.options import option
 from neurovpr.apps.requests import EvalRequest, TrainRequest, check_fields
 from neurovpr.errors import ValidationError
 
@@ -23,38 +23,20 @@ from .network import MBSNNParameters
 __all__ = ["MBSNNPlugin", "MBSNNTrainOptions", "MBSNNEvalOptions", "MODEL"]
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{value} is not >= 1")
-    return value
-
-
-def _add(parser: argparse._ActionsContainer, *flags: str, **kwargs: Any) -> None:
-    """Add an option (absent from ``args`` unless given) unless another model already declared it."""
-    try:
-        parser.add_argument(*flags, default=argparse.SUPPRESS, **kwargs)
-    except argparse.ArgumentError:
-        pass
-
-
 _DEFAULTS = MBSNNParameters()
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
 class MBSNNTrainOptions:
-    """The mushroom body's own ``train`` options (see :class:`MBSNNPlugin`'s ``--help``)."""
+    """The mushroom body's own ``train`` options (network defaults: :class:`.network.MBSNNParameters`)."""
 
-    learn: str = "0.4:0.6"
-    n_kc: int = _DEFAULTS.n_kc
-    kc_groups: int = _DEFAULTS.kc_groups
-    timestep: float = _DEFAULTS.dt
-    n_pn: int | None = None
-    keep_still: bool = False
-    stretch: float = 1.0
+    learn: str = option("0.4:0.6", "the learned route segment as fractions of the recording", metavar="START:END")
+    n_kc: int = option(_DEFAULTS.n_kc, "Kenyon cells, a multiple of the KC subgroups", metavar="N")
+    kc_groups: int = option(_DEFAULTS.kc_groups, "KC subgroups of the KC->KC connections", metavar="N")
+    timestep: float = option(_DEFAULTS.dt, "simulation time step in ms, at most 1", metavar="MS")
+    n_pn: int | None = option(None, "projection neurons of a binned .mat recording", metavar="N", default_text="from the data")
+    keep_still: bool = option(False, "keep the standing-still start and end of recordings (default: trimmed)")
+    stretch: float = option(1.0, "stretch the recording's time axis by F (2 = half speed)", metavar="F")
 
     def __post_init__(self) -> None:
         from .training import parse_segment
@@ -72,8 +54,8 @@ class MBSNNTrainOptions:
 class MBSNNEvalOptions:
     """The mushroom body's own ``eval`` options."""
 
-    windows: int = 100
-    stretch: float = 1.0
+    windows: int = option(100, "windows (equal shares of the route) that familiarity is scored in", metavar="N")
+    stretch: float = option(1.0, "stretch the test recording's time axis by F (a speed change)", metavar="F")
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -86,29 +68,6 @@ class MBSNNPlugin(ModelPlugin):
     description = "Mushroom-body SNN (Zhu, Mangan & Webb 2023): route familiarity from event-camera spikes"
     train_options = MBSNNTrainOptions
     eval_options = MBSNNEvalOptions
-
-    def add_train_arguments(self, parser: argparse.ArgumentParser) -> None:
-        defaults = _DEFAULTS
-        _add(parser, "--learn", metavar="START:END",
-             help="mbsnn: the learned route segment as fractions of the recording (default 0.4:0.6)")
-        _add(parser, "--n-kc", type=_positive_int, metavar="N",
-             help=f"mbsnn: Kenyon cells, a multiple of the KC subgroups (default {defaults.n_kc})")
-        _add(parser, "--kc-groups", type=_positive_int, metavar="N",
-             help=f"mbsnn: KC subgroups of the KC->KC connections (default {defaults.kc_groups})")
-        _add(parser, "--timestep", type=float, metavar="MS",
-             help=f"mbsnn: simulation time step in ms, at most 1 (default {defaults.dt})")
-        _add(parser, "--n-pn", type=_positive_int, metavar="N",
-             help="mbsnn: projection neurons of a binned .mat recording (default: from the data)")
-        _add(parser, "--keep-still", action="store_true",
-             help="mbsnn: keep the standing-still start and end of recordings (default: trimmed)")
-        _add(parser, "--stretch", type=float, metavar="F",
-             help="mbsnn: stretch the recording's time axis by F (2 = half speed; default 1)")
-
-    def add_eval_arguments(self, parser: argparse.ArgumentParser) -> None:
-        _add(parser, "--windows", type=_positive_int, metavar="N",
-             help="mbsnn: windows (equal shares of the route) that familiarity is scored in (default 100)")
-        _add(parser, "--stretch", type=float, metavar="F",
-             help="mbsnn: stretch the test recording's time axis by F (a speed change; default 1)")
 
     def run_train(self, request: TrainRequest) -> dict[str, Any]:
         from .training import parse_segment, train

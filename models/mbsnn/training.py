@@ -12,7 +12,6 @@ A run directory written by :func:`train` holds
 from __future__ import annotations
 
 import io
-import json
 import os
 import time
 from pathlib import Path
@@ -20,10 +19,10 @@ from typing import Any
 
 import numpy as np
 
-import neurovpr as nv
+from neurovpr.apps.rundir import NETWORK_FILE, RunDir
 from neurovpr.data.events import DAVIS346_BINNING_2020, DAVIS346_BINNING_2023, PNSpikes, load_pn_spikes, stretch_time
 from neurovpr.errors import FileFormatError, ValidationError
-from neurovpr.fileio import atomic_write_bytes, atomic_write_text
+from neurovpr.fileio import atomic_write_bytes
 
 from .model import check_recording, compile_mbsnn, present
 from .network import KC_KC, MBSNNParameters, build_network, check_resources, paper_neuron_count
@@ -35,11 +34,9 @@ __all__ = [
     "save_spikes",
     "load_spikes",
     "train",
-    "NETWORK_FILE",
     "SEGMENT_FILE",
 ]
 
-NETWORK_FILE = "network.h5"
 SEGMENT_FILE = "learned_segment.npz"
 
 
@@ -115,12 +112,12 @@ def load_spikes(path: str | os.PathLike[str]) -> PNSpikes:
 
 
 def _existing_run(out: Path, settings: dict[str, Any]) -> dict[str, Any] | None:
-    path = out / "run.json"
-    if not path.is_file() or not (out / NETWORK_FILE).is_file():
+    run = RunDir(out)
+    if not run.finished or not run.has_network:
         return None
     try:
-        info = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        info = run.read_info()
+    except ValidationError:
         return None
     same = all(info.get(key) == value for key, value in settings.items())
     return info if same else None
@@ -165,10 +162,11 @@ def train(
     response = present(sim, segment, learn=True, progress="learning" if progress else None)
     wall = time.perf_counter() - t0
     weights = sim.weights(KC_KC, format="list")
-    out.mkdir(parents=True, exist_ok=True)
-    (out / "run.json").unlink(missing_ok=True)  # the directory is unfinished until run.json is back
-    nv.save(sim, out / NETWORK_FILE)
-    save_spikes(segment, out / SEGMENT_FILE)
+    run = RunDir(out)
+    run.path.mkdir(parents=True, exist_ok=True)
+    run.mark_unfinished()  # the directory is unfinished until run.json is back
+    run.save_network(sim)
+    save_spikes(segment, run.part(SEGMENT_FILE))
     grid, _ = pn_grid(spikes.n_pn)
     info = {
         **settings,
@@ -188,5 +186,5 @@ def train(
             "kc_kc_mean_weight_nA": round(float(weights.mean()), 6),
         },
     }
-    atomic_write_text(out / "run.json", json.dumps(info, indent=2))
+    run.write_info(info)
     return info

@@ -5,7 +5,8 @@
 - :mod:`.inference` -- assignment, hyperactive neurons, fusion, ensembles
 - :mod:`.deployment` -- the current-based approximation for backends without conductance synapses
 - :mod:`.parallel` -- process pool / Dask execution of module jobs
-- :mod:`.runs` -- run directories: plan, calibration split, resume, query responses, similarities
+- :mod:`.plan` -- the plan: places split into modules, calibration places and queries
+- :mod:`.runs` -- run directories: training with resume, query responses, similarities
 - :mod:`.report` -- metrics at several sequence lengths and plots
 - :mod:`.plugin` -- ``neurovpr train/eval --model modular``; :data:`MODEL` is its entry point
 
@@ -63,8 +64,9 @@ from .inference import (
     reference_activity,
 )
 from .network import ModuleParameters, build_module
+from .plan import make_plan
 from .plugin import MODEL, ModularSNNPlugin
-from .runs import MemberSimilarities, make_plan, member_similarities, query_responses, train_run
+from .runs import MemberSimilarities, member_similarities, query_responses, train_run
 from .training import TrainingSettings, derive_seed, train_module
 
 __all__ = [

@@ -18,7 +18,6 @@ images, as JSON plus PNG plots in ``RUN_DIR/eval`` (or ``--report``).
 
 from __future__ import annotations
 
-import argparse
 import io
 import json
 import sys
@@ -29,8 +28,10 @@ from typing import Any, Literal
 import numpy as np
 
 import neurovpr as nv
-from neurovpr.apps.modelapi import ModelPlugin, read_run_info
+from neurovpr.apps.modelapi import ModelPlugin
+from neurovpr.apps.options import option
 from neurovpr.apps.requests import EvalRequest, TrainRequest, check_fields
+from neurovpr.apps.rundir import RunDir
 from neurovpr.data.encoding import RateCoding
 from neurovpr.fileio import atomic_write_text
 from neurovpr.resources import check_network
@@ -38,43 +39,54 @@ from neurovpr.resources import check_network
 from .deployment import deployed_network, deployment_form, static_network
 from .network import ModuleParameters
 from .parallel import default_workers
+from .plan import calibration_places, default_calibration_places, describe_plan, split_queries
 from .report import evaluate_similarities, write_plots
-from .runs import (
-    RUN_FORMAT,
-    calibration_places,
-    default_calibration_places,
-    describe_plan,
-    member_similarities,
-    query_responses,
-    reference_digest,
-    split_queries,
-    train_run,
-)
+from .runs import RUN_FORMAT, member_similarities, query_responses, reference_digest, train_run
 from .training import TrainingSettings
 
 __all__ = ["ModularSNNPlugin", "ModularTrainOptions", "ModularEvalOptions", "load_traverse"]
 
+_TRAINING = TrainingSettings()
+
+
 @dataclass(frozen=True, slots=True, kw_only=True)
 class ModularTrainOptions:
-    """The Modular SNN's own ``train`` options (defaults: the paper; ``neurovpr train --model modular --help``)."""
+    """The Modular SNN's own ``train`` options (defaults: the paper, from :class:`.training.TrainingSettings`)."""
 
-    members: int = 1
-    epochs: int = 30
-    module_size: int = 25
-    neurons: int = 400
-    places: int | None = None
-    extra_reference: tuple[Path, ...] = ()
-    workers: int | None = None
-    max_modules: int | None = None
-    stdp: Literal["code", "paper"] = "code"
-    hyperactive: Literal["images", "spikes"] = "images"
-    theta: float | None = None
-    place_score: Literal["standard", "sum"] = "standard"
-    place_order: Literal["shuffled", "route"] = "shuffled"
-    calibration_places: int | None = None
-    assignment_presentations: int = 250
-    dt: float = 0.1
-    simulate_rest: bool = False
+    members: int = option(1, "ensemble size M (1: one modular SNN)")
+    epochs: int = option(_TRAINING.epochs, "training epochs per module")
+    module_size: int = option(_TRAINING.module_size, "places per module")
+    neurons: int = option(_TRAINING.params.n_neurons, "excitatory (and inhibitory) neurons per module")
+    places: int | None = option(None, "use only the first N reference places", default_text="all")
+    extra_reference: tuple[Path, ...] = option(
+        (),
+        "another dataset whose reference traverse holds the same places in the same order; its images are "
+        "trained on too (repeatable; --places applies to it as well)",
+        metavar="PATH",
+    )
+    workers: int | None = option(None, "local worker processes", default_text="the CPU cores")
+    max_modules: int | None = option(
+        None, "train at most N unfinished modules, then stop (continue with --resume)", default_text="all"
+    )
+    stdp: Literal["code", "paper"] = option(_TRAINING.params.stdp, "learning rule: the authors' code or the paper's equation")
+    hyperactive: Literal["images", "spikes"] = option(
+        "images", "hyperactive activity: reference images fired for, or spikes"
+    )
+    theta: float | None = option(None, "fixed hyperactive threshold", default_text="calibrated per member")
+    place_score: Literal["standard", "sum"] = option("standard", "place score: spikes per assigned neuron, or the sum")
+    place_order: Literal["shuffled", "route"] = option(
+        "shuffled", "places of a module: random per member, or consecutive"
+    )
+    calibration_places: int | None = option(
+        None,
+        "places set aside to calibrate the hyperactive threshold",
+        default_text="about 20% of the places in whole modules, none below three modules",
+    )
+    assignment_presentations: int = option(
+        _TRAINING.assignment_presentations, "assign neurons from this many last training presentations"
+    )
+    dt: float = option(_TRAINING.dt, "time step in ms (as the authors' code)")
+    simulate_rest: bool = option(False, "simulate the 150 ms rest instead of reset()")
 
     def __post_init__(self) -> None:
         check_fields(self)
@@ -86,20 +98,12 @@ class ModularTrainOptions:
 class ModularEvalOptions:
     """The Modular SNN's own ``eval`` options."""
 
-    members_used: int | None = None
-    workers: int | None = None
-    report: Path | None = None
+    members_used: int | None = option(None, "evaluate the first K ensemble members only", default_text="all")
+    workers: int | None = option(None, "local worker processes", default_text="the CPU cores")
+    report: Path | None = option(None, "folder for results JSON and PNGs", default_text="RUN_DIR/eval")
 
     def __post_init__(self) -> None:
         check_fields(self)
-
-
-def _add(parser: argparse._ActionsContainer, *flags: str, **kwargs: Any) -> None:
-    """Add an option unless another model already declared the same flag (then it is shared)."""
-    try:
-        parser.add_argument(*flags, default=argparse.SUPPRESS, **kwargs)
-    except argparse.ArgumentError:
-        pass
 
 
 def load_extra_references(paths: Any, main: str | Path, n_places: int, places: int | None, progress: bool) -> list[Any]:
@@ -155,48 +159,6 @@ class ModularSNNPlugin(ModelPlugin):
     description = "Modular SNN and Ensembles of Modular SNNs (Hussaini et al., T-RO 2024)"
     train_options = ModularTrainOptions
     eval_options = ModularEvalOptions
-
-    def add_train_arguments(self, parser: argparse.ArgumentParser) -> None:
-        """Model options of ``neurovpr train`` (defaults: the paper)."""
-        _add(parser, "--members", type=int, help="ensemble size M (default 1: one modular SNN)")
-        _add(parser, "--epochs", type=int, help="training epochs per module (default 30)")
-        _add(parser, "--module-size", type=int, help="places per module (default 25)")
-        _add(parser, "--neurons", type=int, help="excitatory (and inhibitory) neurons per module (default 400)")
-        _add(parser, "--places", type=int, help="use only the first N reference places (default all)")
-        _add(
-            parser,
-            "--extra-reference",
-            action="append",
-            type=Path,
-            metavar="PATH",
-            help="another dataset whose reference traverse holds the same places in the same order; its images are "
-            "trained on too (repeatable; --places applies to it as well)",
-        )
-        _add(parser, "--workers", type=int, help="local worker processes (default: the CPU cores)")
-        _add(parser, "--max-modules", type=int, help="train at most N unfinished modules, then stop (continue with --resume)")
-        _add(parser, "--stdp", choices=("code", "paper"), help="learning rule: the authors' code or the paper's equation "
-             "(default code)")  # fmt: skip
-        _add(parser, "--hyperactive", choices=("images", "spikes"), help="hyperactive activity: reference images fired "
-             "for, or spikes (default images)")  # fmt: skip
-        _add(parser, "--theta", type=float, help="fixed hyperactive threshold (default: calibrated per member)")
-        _add(parser, "--calibration-places", type=int, help="places set aside to calibrate the hyperactive threshold "
-             "(default: about 20%% of the places in whole modules, none below three modules)")  # fmt: skip
-        _add(parser, "--place-score", choices=("standard", "sum"), help="place score: spikes per assigned neuron, or "
-             "the sum (default standard)")  # fmt: skip
-        _add(parser, "--place-order", choices=("shuffled", "route"), help="places of a module: random per member, or "
-             "consecutive (default shuffled)")  # fmt: skip
-        _add(parser, "--assignment-presentations", type=int, help="assign neurons from this many last training "
-             "presentations (default 250)")  # fmt: skip
-        _add(parser, "--dt", type=float, help="time step in ms (default 0.1, as the authors' code)")
-        _add(parser, "--simulate-rest", action="store_true", help="simulate the 150 ms rest instead of reset()")
-        _add(parser, "--no-progress", action="store_true", help="no progress bars")
-
-    def add_eval_arguments(self, parser: argparse.ArgumentParser) -> None:
-        """Model options of ``neurovpr eval``."""
-        _add(parser, "--members-used", type=int, help="evaluate the first K ensemble members only (default all)")
-        _add(parser, "--workers", type=int, help="local worker processes (default: the CPU cores)")
-        _add(parser, "--report", type=Path, help="folder for results JSON and PNGs (default RUN_DIR/eval)")
-        _add(parser, "--no-progress", action="store_true", help="no progress bars")
 
     # ------------------------------------------------------------------ train
     def run_train(self, request: TrainRequest) -> dict[str, Any]:
@@ -279,7 +241,9 @@ class ModularSNNPlugin(ModelPlugin):
         o: ModularEvalOptions = request.options
         run_dir = request.run
         if run_info.get("format") != RUN_FORMAT:
-            raise nv.ValidationError(f"{run_dir}/run.json is not a complete Modular SNN run (format {run_info.get('format')!r}).")
+            raise nv.ValidationError(
+                f"{RunDir(run_dir).info_file} is not a complete Modular SNN run (format {run_info.get('format')!r})."
+            )
         backend = request.backend or run_info["backend"]
         progress = request.progress
         data, traverse, reference, query = _run_data(run_dir, run_info, request.data, progress)
@@ -356,14 +320,16 @@ class ModularSNNPlugin(ModelPlugin):
         from .training import derive_seed
 
         run_dir = Path(run_dir)
-        run_info = read_run_info(run_dir)
+        run_info = RunDir(run_dir).read_info()
         if run_info.get("format") != RUN_FORMAT:
-            raise nv.ValidationError(f"{run_dir}/run.json is not a complete Modular SNN run (format {run_info.get('format')!r}).")
+            raise nv.ValidationError(
+                f"{RunDir(run_dir).info_file} is not a complete Modular SNN run (format {run_info.get('format')!r})."
+            )
         chosen = nv.get_backend(backend)
         learns = chosen.capabilities.learns
         modules = run_info.get("modules") or []
         if not modules:
-            raise nv.ValidationError(f"{run_dir}/run.json lists no modules; was the run complete?")
+            raise nv.ValidationError(f"{RunDir(run_dir).info_file} lists no modules; was the run complete?")
         cfg_settings = TrainingSettings.from_dict(run_info["settings"])
         first = _module_network(run_dir, modules[0]["name"])
         form = deployment_form(first, backend, dt=cfg_settings.dt, current_based=current_based)
@@ -424,7 +390,7 @@ def _run_data(run_dir: Path, run_info: dict[str, Any], data: Any, progress: bool
     run was trained on (place count and reference-image digest), and its preprocessed reference and query images."""
     data = data or run_info.get("data")
     if not data:
-        raise nv.ValidationError(f"{run_dir}/run.json names no dataset; pass --data.")
+        raise nv.ValidationError(f"{RunDir(run_dir).info_file} names no dataset; pass --data.")
     traverse = load_traverse(data, run_info.get("places"))
     if traverse.n_reference != int(run_info["n_reference"]):
         raise nv.ValidationError(

@@ -1,4 +1,4 @@
-"""A Modular SNN run directory: plan, training with resume, query responses, similarities.
+"""A Modular SNN run directory: training with resume (plan: :mod:`.plan`), query responses, similarities.
 
 Layout of ``RUN_DIR``::
 
@@ -7,26 +7,7 @@ Layout of ``RUN_DIR``::
     modules/m00_k000.npz          its record (places, responses, counts, seed, timing)
     query/<backend>/m00_k000.npz  cached query responses (eval), keyed by the query data
 
-Plan. Each of the ``M`` members cuts the ``R`` reference places into modules of
-``module_size`` places. ``place_order="shuffled"`` (default) is VPRSNN's split
-(``tools/snn_model_utils.py: get_shuffled_indices``): ``n_calibration`` calibration
-places, the first of a permutation drawn with seed 42 (the same for every member), in
-an order shuffled with the member's seed, then the other places in an order shuffled
-with it, so each member has its own random split of places into modules (the diversity
-the ensemble relies on); modules take consecutive runs of that list, calibration places
-and reported places never in one module. ``"route"`` takes the calibration places (the
-same set) and the other places in route order (geographically contiguous regions).
-When a part is not a multiple of ``module_size`` its remainder forms a last, smaller
-module. Module ``k`` of member ``m`` is seeded with ``derive_seed(seed, m, 0, k)``
-(initial weights, delays, Poisson spikes, presentation order), member ``m``'s split with
-``derive_seed(seed, m, 1)``.
-
-Calibration and reported places. The calibration modules and the calibration queries
-(queries whose matches are all calibration places) choose each member's hyperactive
-threshold (:func:`.inference.calibrate_threshold`, as the code's ``calibrate`` mode);
-the other modules, places and queries are the ones evaluated and reported, as the code's
-``test`` mode (:func:`member_similarities`). Without calibration places (or with a fixed
-``theta``) nothing is calibrated and every place is reported.
+Plan and calibration places: :mod:`.plan`.
 
 Training traverses. Every module trains on its places in the reference traverse and,
 when given, in extra reference traverses of the same places (``extra_references``;
@@ -47,7 +28,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import math
 import sys
 import time
 from collections.abc import Sequence
@@ -58,9 +38,9 @@ from typing import Any
 import numpy as np
 
 import neurovpr as nv
-from neurovpr.apps.rundir import damaged_part
+from neurovpr.apps.rundir import RunDir, damaged_part
 from neurovpr.data.ground_truth import GroundTruth
-from neurovpr.fileio import atomic_write_bytes, atomic_write_text
+from neurovpr.fileio import atomic_write_bytes
 
 from .inference import (
     SCORES,
@@ -72,17 +52,11 @@ from .inference import (
     module_similarity,
 )
 from .parallel import npz_bytes, query_job, read_npz, run_jobs, train_job
+from .plan import ModulePlan, calibration_places, describe_plan, make_plan, split_queries
 from .training import TrainingSettings, derive_seed
 
 __all__ = [
-    "ModulePlan",
     "MemberSimilarities",
-    "place_split",
-    "calibration_places",
-    "default_calibration_places",
-    "split_queries",
-    "make_plan",
-    "describe_plan",
     "digest",
     "reference_digest",
     "train_run",
@@ -93,111 +67,7 @@ __all__ = [
 
 #: ``run.json`` format tag of this model.
 RUN_FORMAT = "neurovpr-modular-snn-run/2"
-PLACE_ORDERS = ("shuffled", "route")
 MEASURES = ("images", "spikes")
-#: The seed of VPRSNN's draw of the calibration places (the same for every member).
-_CALIBRATION_SEED = 42
-
-
-@dataclass(frozen=True, slots=True)
-class ModulePlan:
-    """One module job: which member and module, its name, places and seed, and whether it calibrates."""
-
-    member: int
-    module: int
-    places: np.ndarray
-    seed: int
-    calibration: bool = False
-
-    @property
-    def name(self) -> str:
-        """File stem, ``m<member>_k<module>``."""
-        return f"m{self.member:02d}_k{self.module:03d}"
-
-
-def calibration_places(n_places: int, n_calibration: int) -> np.ndarray:
-    """The calibration places, sorted: the first ``n_calibration`` of VPRSNN's seed-42 permutation."""
-    n, c = int(n_places), int(n_calibration)
-    if not 0 <= c < n:
-        raise nv.ValidationError(f"calibration places: {c} of {n} places, expected 0..{n - 1}.")
-    return np.sort(np.random.RandomState(_CALIBRATION_SEED).permutation(n)[:c])
-
-
-def default_calibration_places(n_places: int, module_size: int) -> int:
-    """About 20 % of the places in whole modules (VPRSNN: 600 of 3,300), none below three modules' worth."""
-    n_cal = int(module_size) * math.floor(0.2 * int(n_places) / int(module_size) + 0.5)
-    return n_cal if n_cal < int(n_places) and int(n_places) >= 3 * int(module_size) else 0
-
-
-def place_split(n_places: int, n_calibration: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
-    """VPRSNN's ``get_shuffled_indices``: the calibration places and the other places, each in a shuffled order.
-
-    Draws as that function does: the calibration places from a permutation with seed 42,
-    then, from one generator seeded with ``seed``, a shuffle of them, a permutation of
-    every place (which only advances the generator) and a shuffle of the other places.
-    """
-    cal = np.random.RandomState(_CALIBRATION_SEED).permutation(int(n_places))[: int(n_calibration)]
-    rng = np.random.RandomState(int(seed))
-    rng.shuffle(cal)
-    rest = np.setdiff1d(rng.permutation(int(n_places)), cal)
-    rng.shuffle(rest)
-    return cal, rest
-
-
-def make_plan(
-    n_places: int, module_size: int, members: int, seed: int, place_order: str = "shuffled", n_calibration: int = 0
-) -> list[ModulePlan]:
-    """Every module of every member, member-major: calibration modules first (see the module docstring)."""
-    if int(n_places) < 1:
-        raise nv.ValidationError(f"the reference set has {n_places} places, expected at least 1.")
-    if not 1 <= int(members) <= 100:
-        raise nv.ValidationError(f"ensemble size is {members}, expected 1..100 members.")
-    if place_order not in PLACE_ORDERS:
-        raise nv.ValidationError(f"place order is {place_order!r}, expected one of {', '.join(PLACE_ORDERS)}.")
-    cal_set = calibration_places(n_places, n_calibration)
-    plan = []
-    for m in range(int(members)):
-        if place_order == "shuffled":
-            cal, rest = place_split(n_places, n_calibration, derive_seed(seed, m, 1))
-        else:
-            cal, rest = cal_set, np.setdiff1d(np.arange(n_places), cal_set)
-        chunks = [(cal[i : i + module_size], True) for i in range(0, cal.size, module_size)]
-        chunks += [(rest[i : i + module_size], False) for i in range(0, rest.size, module_size)]
-        for k, (places, calibrates) in enumerate(chunks):
-            plan.append(
-                ModulePlan(member=m, module=k, places=np.sort(places), seed=derive_seed(seed, m, 0, k), calibration=calibrates)
-            )
-    return plan
-
-
-def describe_plan(n_places: int, module_size: int, n_calibration: int = 0) -> str:
-    """One sentence: how the places split into modules (naming a smaller last module and the calibration part)."""
-
-    def part(n: int) -> str:
-        full, rest = divmod(int(n), int(module_size))
-        if rest == 0:
-            return f"{n} places in {full} module(s) of {module_size}"
-        if full == 0:
-            return f"{n} places in 1 module of {rest} (fewer than the module size {module_size})"
-        return (
-            f"{n} places in {full} module(s) of {module_size} and a last, smaller module of {rest} "
-            f"({n} is not a multiple of {module_size})"
-        )
-
-    if not n_calibration:
-        return part(n_places)
-    return f"{part(int(n_places) - int(n_calibration))}, reported; {part(n_calibration)}, for calibration"
-
-
-def split_queries(ground_truth: Any, calibration: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(calibration queries, reported queries)``: a query with matches, all among the calibration places, calibrates."""
-    matrix = np.asarray(getattr(ground_truth, "matrix", ground_truth), dtype=bool)
-    in_cal = np.zeros(matrix.shape[0], dtype=bool)
-    in_cal[np.asarray(calibration, dtype=np.int64)] = True
-    has = matrix.any(axis=0)
-    only_cal = has & ~(matrix & ~in_cal[:, None]).any(axis=0)
-    return np.flatnonzero(only_cal), np.flatnonzero(~only_cal)
-
 
 def digest(*parts: Any) -> str:
     """SHA-256 of ``parts`` in order: arrays by their bytes, anything else as sorted-key JSON.
@@ -329,7 +199,7 @@ def train_run(
     if not chosen or not chosen <= set(range(int(members))):
         raise nv.ValidationError(f"only_members {sorted(chosen)} must name members among 0..{int(members) - 1}.")
     existing = _modules_dir(run_dir).is_dir() and any(_modules_dir(run_dir).iterdir())
-    if (existing or (run_dir / "run.json").exists()) and not resume:
+    if (existing or RunDir(run_dir).info_file.exists()) and not resume:
         raise nv.ValidationError(f"{run_dir} already holds a run; pass --resume to continue it or choose another --out.")
     plan = make_plan(n_ref, settings.module_size, members, seed, place_order, n_calibration)
     cfg = json.dumps(settings.as_dict(), sort_keys=True)
@@ -418,7 +288,7 @@ def train_run(
     summary["run_info"] = run_info
     if remaining:
         return summary
-    atomic_write_text(run_dir / "run.json", json.dumps(run_info, indent=1))
+    RunDir(run_dir).write_info(run_info, indent=1)
     summary.update(complete=True)
     return summary
 

@@ -22,7 +22,6 @@ found through their entry points.
 
 from __future__ import annotations
 
-import importlib.metadata
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -32,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from neurovpr.apps import modelapi
-from neurovpr.apps.rundir import NETWORK_FILE
+from neurovpr.apps.rundir import NETWORK_FILE, RunDir
 from neurovpr.errors import BackendUnavailableError, UnsupportedFeatureError, ValidationError
 from neurovpr.runtime import registry
 
@@ -49,7 +48,6 @@ __all__ = [
 
 #: Metrics shown in the table and the plot when the model reports them, in this order.
 PRIMARY_METRICS = ("R@1", "P@100R", "AUC_PR", "AUC_ROC")
-_NETWORK_FILE = NETWORK_FILE
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
@@ -110,6 +108,9 @@ class Comparison:
     trained_on: str | None
     hardware: str | None
     rows: tuple[BackendComparison, ...]
+    #: The fit of the run's network on ``hardware`` (``fits``, ``dt_ms``, ``chips``, ``cores``, ``violations``):
+    #: the one partition every row's energy estimate uses; ``None`` without a hwspec or a network file.
+    hardware_fit: dict[str, Any] | None = None
 
     @property
     def reference_backend(self) -> str | None:
@@ -138,6 +139,13 @@ class Comparison:
         ref = self.reference_backend
         if ref is not None:
             out.append(f"agreement and spike-count correlation are measured against {ref}")
+        fit = self.hardware_fit
+        if fit is not None:
+            verdict = "fits" if fit["fits"] else f"does NOT fit ({fit['violations']} limits broken)"
+            out.append(
+                f"the network {verdict} {self.hardware} at dt {fit['dt_ms']:g} ms: {fit['chips']} chip(s), {fit['cores']} "
+                "cores, the partition every energy figure uses"
+            )
         return out
 
     def shown_metrics(self) -> list[str]:
@@ -157,6 +165,7 @@ class Comparison:
             "data": self.data,
             "trained_on": self.trained_on,
             "hardware": self.hardware,
+            "hardware_fit": None if self.hardware_fit is None else dict(self.hardware_fit),
             "reference_backend": self.reference_backend,
             "backends": {r.backend: r.as_dict() for r in self.rows},
             "notes": self.notes(),
@@ -196,7 +205,7 @@ def _fmt(value: float | None, spec: str = ".3f") -> str:
 
 
 def _backend_names() -> list[str]:
-    return sorted({ep.name for ep in importlib.metadata.entry_points(group=registry.ENTRY_POINT_GROUP)})
+    return registry.declared_names()
 
 
 def parse_backends(text: str | Sequence[str]) -> tuple[str, ...]:
@@ -300,8 +309,8 @@ def _check_result(model: str, backend: str, result: Any) -> dict[str, Any]:
     }
 
 
-def _energy(activity: Mapping[str, Any] | None, spec: Any, network: Any, seed: int) -> dict[str, Any]:
-    """Energy per inference on ``spec`` from one backend's per-inference activity."""
+def _energy(activity: Mapping[str, Any] | None, spec: Any, network: Any, partition: Any) -> dict[str, Any]:
+    """Energy per inference on ``spec`` from one backend's per-inference activity, on the run's one ``partition``."""
     from neurovpr.hardware.energy import REQUIRED_COUNTS, estimate_energy
 
     if activity is None:
@@ -313,7 +322,7 @@ def _energy(activity: Mapping[str, Any] | None, spec: Any, network: Any, seed: i
     counts["dt_ms"] = activity.get("dt_ms")
     if isinstance(activity.get("population_spikes"), Mapping):
         counts["population_spikes"] = dict(activity["population_spikes"])
-    report = estimate_energy(counts, spec, network=network, seed=seed)
+    report = estimate_energy(counts, spec, network=network, partition=partition)
     full = report.as_dict()
     return {k: full[k] for k in ("hardware", "joules_per_inference", "breakdown", "seconds_per_inference", "chips",
                                  "cores", "not_estimated", "notes")}  # fmt: skip
@@ -324,7 +333,7 @@ def _neurobench(activity: Mapping[str, Any] | None, network: Any, seed: int) -> 
     from neurovpr.evaluation.neurobench import neurobench_from_activity
 
     if network is None:
-        return {"reason": f"the run directory has no {_NETWORK_FILE}"}
+        return {"reason": f"the run directory has no {NETWORK_FILE}"}
     if activity is None or "steps" not in activity:
         return {"reason": "the backend counted no activity"}
     return neurobench_from_activity(network, activity, seed=seed)
@@ -332,12 +341,8 @@ def _neurobench(activity: Mapping[str, Any] | None, network: Any, seed: int) -> 
 
 def _run_network(run_dir: Path) -> Any:
     """The run's network (for the partition behind the energy estimate), or ``None`` when it has none."""
-    path = run_dir / _NETWORK_FILE
-    if not path.is_file():
-        return None
-    from neurovpr.ir.serialization import load
-
-    return load(path)
+    run = RunDir(run_dir)
+    return run.load_network() if run.has_network else None
 
 
 def compare_model(
@@ -384,12 +389,17 @@ def compare_model(
         raise ValidationError(f"model must be a neurovpr ModelPlugin, got {type(plugin).__name__}.")
     if type(plugin).infer is modelapi.ModelPlugin.infer:
         raise UnsupportedFeatureError(f"Model {info['model']!r} does not implement inference, so it cannot be compared.")
-    spec = None
+    spec = fit = None
     network = _run_network(run_dir)
     if hardware is not None:
+        from neurovpr.hardware.check import check_network
         from neurovpr.hardware.hwspec import load_hwspec
 
         spec = load_hwspec(hardware)
+        if network is not None:
+            # one partition, as `neurovpr check --run RUN_DIR` makes it: the run's time step and this seed
+            recorded = RunDir(run_dir).time_step()
+            fit = check_network(network, spec, seed=seed, dt=None if recorded is None else recorded[0])
     trained_on = info.get("backend") if isinstance(info.get("backend"), str) else None
     data_path = None if data is None else Path(data)
     if data_path is not None and not data_path.exists():
@@ -406,7 +416,7 @@ def compare_model(
         for name in names:
             if bar is not None:
                 bar.set_postfix_str(name)
-            row = _one_backend(plugin, info["model"], run_dir, data_path, name, seed, trained_on, ref, spec, network)
+            row = _one_backend(plugin, info["model"], run_dir, data_path, name, seed, trained_on, ref, spec, network, fit)
             if ref is None and row.ran:
                 ref = row
             rows.append(row)
@@ -422,6 +432,10 @@ def compare_model(
         trained_on=trained_on,
         hardware=None if spec is None else spec.name,
         rows=tuple(rows),
+        hardware_fit=None if fit is None else {
+            "fits": fit.fits, "dt_ms": fit.spec.timing.time_step_ms, "chips": fit.partition.chips,
+            "cores": len(fit.partition.cores), "violations": len(fit.partition.violations),
+        },
     )
 
 
@@ -436,6 +450,7 @@ def _one_backend(
     ref: BackendComparison | None,
     spec: Any,
     network: Any,
+    fit: Any,
 ) -> BackendComparison:
     refusal = availability_refusal(name)
     if refusal is not None:
@@ -460,7 +475,7 @@ def _one_backend(
             )
         agree = agreement(res["predictions"], ref.predictions)
         corr = spike_count_correlation(res["output_counts"], ref.output_counts)
-    energy = None if spec is None else _energy(res["activity"], spec, network, seed)
+    energy = None if spec is None else _energy(res["activity"], spec, network, None if fit is None else fit.partition)
     return BackendComparison(
         neurobench=_neurobench(res["activity"], network, seed),
         backend=name,

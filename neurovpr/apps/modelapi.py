@@ -4,23 +4,22 @@ Models live outside the core (``models/``, installed as ``neurovpr.models.<name>
 and declare a :class:`ModelPlugin` instance under the ``neurovpr.models`` entry
 point group, so Python code and the CLI can train and evaluate them without importing them by name.
 
-A *run directory* is what ``neurovpr train`` writes: ``run.json`` (at least
-``{"model": NAME, "backend": ..., "seed": ...}``), the trained network(s) as HDF5,
-and whatever else the model needs. ``neurovpr eval --run DIR`` reads ``run.json`` to
-find the model.
+A *run directory* is what ``neurovpr train`` writes; its layout is owned by
+:class:`~neurovpr.apps.rundir.RunDir`. ``neurovpr eval --run DIR`` reads its
+``run.json`` to find the model.
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
-import importlib.metadata
-import json
 from pathlib import Path
 from typing import Any
 
+from neurovpr import entrypoints
+from neurovpr.apps.options import add_option_arguments
 from neurovpr.apps.requests import EvalRequest, TrainRequest
-from neurovpr.apps.rundir import RUN_FILE
+from neurovpr.apps.rundir import RunDir
 from neurovpr.errors import BackendUnavailableError, ValidationError
 
 __all__ = ["ModelPlugin", "TrainRequest", "EvalRequest", "MODEL_ENTRY_POINT_GROUP", "model_names", "get_model", "read_run_info"]
@@ -80,16 +79,19 @@ class ModelPlugin:
     name: str = ""
     #: One line describing the model.
     description: str = ""
-    #: The model's own ``train`` options (a frozen dataclass whose fields all have defaults).
+    #: The model's own ``train`` options: a frozen dataclass whose fields all have defaults and help
+    #: (:func:`neurovpr.apps.options.option`); the command line's flags are generated from it.
     train_options: type = _NoOptions
     #: The model's own ``eval`` options.
     eval_options: type = _NoOptions
 
-    def add_train_arguments(self, parser: argparse.ArgumentParser) -> None:
-        """Add the model's own ``train`` options to the command line (dest names are ``train_options`` fields)."""
+    def add_train_arguments(self, parser: argparse._ActionsContainer) -> None:
+        """Add the model's own ``train`` options to the command line, one per field of ``train_options``."""
+        add_option_arguments(parser, self.train_options)
 
-    def add_eval_arguments(self, parser: argparse.ArgumentParser) -> None:
-        """Add the model's own ``eval`` options to the command line (dest names are ``eval_options`` fields)."""
+    def add_eval_arguments(self, parser: argparse._ActionsContainer) -> None:
+        """Add the model's own ``eval`` options to the command line, one per field of ``eval_options``."""
+        add_option_arguments(parser, self.eval_options)
 
     def train_request(self, **fields: Any) -> TrainRequest:
         """A :class:`TrainRequest` from keyword arguments: the common fields and this model's options, by name."""
@@ -142,38 +144,18 @@ class ModelPlugin:
         raise NotImplementedError(f"Model {self.name!r} does not implement inference for compare.")
 
 
-def _entry_points() -> list[importlib.metadata.EntryPoint]:
-    return sorted(importlib.metadata.entry_points(group=MODEL_ENTRY_POINT_GROUP), key=lambda ep: ep.name)
-
-
 def model_names() -> list[str]:
     """Names of the installed models."""
-    return [ep.name for ep in _entry_points()]
+    return entrypoints.declared_names(MODEL_ENTRY_POINT_GROUP)
 
 
 def get_model(name: str) -> ModelPlugin:
     """The model declared under ``name``."""
-    matches = [ep for ep in _entry_points() if ep.name == name]
-    if not matches:
-        raise ValidationError(f"Unknown model {name!r}; known models: {', '.join(model_names()) or 'none'}.")
-    try:
-        plugin = matches[0].load()
-    except Exception as exc:
-        raise BackendUnavailableError(f"Model {name!r} failed to load: {type(exc).__name__}: {exc}.") from exc
-    if not isinstance(plugin, ModelPlugin):
-        raise BackendUnavailableError(f"Model {name!r} does not provide a neurovpr ModelPlugin.")
-    return plugin
+    return entrypoints.load_declared(
+        MODEL_ENTRY_POINT_GROUP, name, ModelPlugin, what="model", unknown=ValidationError, broken=BackendUnavailableError
+    )
 
 
 def read_run_info(run_dir: str | Path) -> dict[str, Any]:
-    """Read and check ``RUN_DIR/run.json``."""
-    path = Path(run_dir) / RUN_FILE
-    if not path.is_file():
-        raise ValidationError(f"Run directory {str(run_dir)!r} has no run.json (was it written by neurovpr train?).")
-    try:
-        info = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as exc:
-        raise ValidationError(f"{path} is not readable JSON ({exc}).") from None
-    if not isinstance(info, dict) or not isinstance(info.get("model"), str):
-        raise ValidationError(f"{path} does not name its model.")
-    return info
+    """``run.json`` of the run directory ``run_dir``, checked (:meth:`RunDir.read_info`)."""
+    return RunDir(run_dir).read_info()

@@ -17,6 +17,7 @@ from __future__ import annotations
 from neurovpr.ir.cells import CELL_TYPES, NeuronType, SourceType
 from neurovpr.ir.connectors import CONNECTORS
 from neurovpr.ir.synapses import SYNAPSE_TYPES, Synapse
+from neurovpr.runtime.backend import Capabilities
 
 __all__ = [
     "EVERY_CONNECTOR",
@@ -26,6 +27,7 @@ __all__ = [
     "EVERY_SYNAPSE",
     "STATIC_SYNAPSE",
     "EVERY_RECORDABLE",
+    "CURRENT_LIF_INFERENCE",
 ]
 
 #: Every connector of the IR.
@@ -43,3 +45,16 @@ EVERY_SYNAPSE = frozenset(name for name, cls in SYNAPSE_TYPES.items() if issubcl
 STATIC_SYNAPSE = frozenset({"StaticSynapse"})
 #: Every state variable a spiking neuron model records.
 EVERY_RECORDABLE = frozenset(var for name in SPIKING_NEURONS for var in CELL_TYPES[name].recordable)
+
+#: The preset of the backends that run the inference subset in normalised compartments (Nengo,
+#: NengoLoihi, Lava): ``IF_curr_exp`` and the spike sources, every connector, fixed weights, delays
+#: per synapse, ``v`` recorded. A backend adds its own ``unsupported``/``tolerances``/``arithmetic``
+#: with :func:`dataclasses.replace`.
+CURRENT_LIF_INFERENCE = Capabilities(
+    cell_types=CURRENT_LIF,
+    connectors=EVERY_CONNECTOR,
+    synapses=STATIC_SYNAPSE,
+    learns=False,
+    heterogeneous_delays=True,
+    recordables=frozenset({"v"}),
+)

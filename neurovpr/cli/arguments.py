@@ -18,14 +18,14 @@ value; the program prints it as one line and exits 2.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import sys
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, Literal
 
+from neurovpr.apps.options import options_from_namespace
 from neurovpr.apps.requests import NUMBERS, Number
-from neurovpr.apps.rundir import NETWORK_FILE, RUN_FILE
+from neurovpr.apps.rundir import RunDir
 from neurovpr.errors import NeurovprError, ValidationError
 from neurovpr.fileio import check_output
 
@@ -101,7 +101,7 @@ def _inputs(args: argparse.Namespace) -> list[Path]:
     paths = [Path(v) for name in _INPUTS if isinstance(v := getattr(args, name, None), (str, Path))]
     run = getattr(args, "run", None)
     if isinstance(run, (str, Path)):
-        paths += [Path(run) / NETWORK_FILE, Path(run) / RUN_FILE]
+        paths += [RunDir(run).network_file, RunDir(run).info_file]
     return paths
 
 
@@ -141,7 +141,7 @@ def parse_model_options(parser: argparse.ArgumentParser, argv: Sequence[str], co
 
 def model_options(args: argparse.Namespace, kind: type) -> Any:
     """The model's options dataclass ``kind`` from the parsed ``args`` (a field not given keeps its default)."""
-    return kind(**{f.name: getattr(args, f.name) for f in dataclasses.fields(kind) if hasattr(args, f.name)})
+    return options_from_namespace(args, kind)
 
 
 def show_progress(args: argparse.Namespace) -> bool:

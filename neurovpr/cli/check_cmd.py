@@ -4,16 +4,11 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 from pathlib import Path
-from typing import Any
 
-from neurovpr.apps.rundir import NETWORK_FILE, RUN_FILE
+from neurovpr.apps.rundir import RunDir
 from neurovpr.errors import ValidationError
 from neurovpr.ir.network import Network
-
-#: The key of ``run.json`` that records the time step (ms) a run's network runs at (every model writes it).
-RUN_DT_KEY = "dt_ms"
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:
@@ -53,46 +48,16 @@ def load_network_arg(run_dir: str | None, file: str | None) -> Network:
     import neurovpr as nv
 
     if run_dir is not None:
-        base = Path(run_dir)
-        if not base.is_dir():
-            raise ValidationError(f"Run directory {run_dir!r} does not exist.")
-        path = base / NETWORK_FILE
-        if not path.is_file():
-            raise ValidationError(f"Run directory {run_dir!r} has no {NETWORK_FILE}.")
-    else:
-        assert file is not None
-        path = Path(file)
-        if not path.is_file():
-            raise ValidationError(f"Network file {file!r} does not exist.")
-        if path.suffix.lower() == ".nir":
-            from neurovpr.interop.nir import load_nir
-
-            return load_nir(path)
-    return nv.load(path)
-
-
-def run_time_step(run_dir: str | Path) -> tuple[float, str] | None:
-    """The time step (ms) ``run_dir/run.json`` records (:data:`RUN_DT_KEY`) and where, or ``None``.
-
-    ``None`` when there is no ``run.json`` or it records no time step.
-
-    Raises
-    ------
-    ValidationError
-        If ``run.json`` is unreadable or the recorded time step is not a positive number.
-    """
-    from neurovpr.apps.modelapi import read_run_info
-
-    path = Path(run_dir) / RUN_FILE
+        return RunDir(run_dir).load_network()
+    assert file is not None
+    path = Path(file)
     if not path.is_file():
-        return None
-    info: Any = read_run_info(run_dir)
-    value = info.get(RUN_DT_KEY) if isinstance(info, dict) else None
-    if value is None:
-        return None
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-        raise ValidationError(f"{path}: time step {RUN_DT_KEY} must be a positive number of ms, got {value!r}.")
-    return float(value), f"{path} {RUN_DT_KEY}"
+        raise ValidationError(f"Network file {file!r} does not exist.")
+    if path.suffix.lower() == ".nir":
+        from neurovpr.interop.nir import load_nir
+
+        return load_nir(path)
+    return nv.load(path)
 
 
 def run(args: argparse.Namespace) -> int:
@@ -105,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     network = load_network_arg(args.run, args.file)
     dt, source = args.dt, "--dt"
     if dt is None:
-        recorded = run_time_step(args.run) if args.run is not None else None
+        recorded = RunDir(args.run).time_step() if args.run is not None else None
         dt, source = recorded if recorded is not None else (None, f"{spec.name} [timing].time_step_ms")
     report = check_network(network, spec, seed=args.seed, dt=dt)
     plot = args.plot

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
 from neurovpr.errors import ValidationError
 
@@ -36,10 +35,11 @@ def add_parser(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Estimate and print the energy."""
+    from neurovpr.apps.rundir import RunDir
     from neurovpr.hardware.energy import ACTIVITY_FILE, estimate_energy, read_activity
     from neurovpr.hardware.hwspec import load_hwspec
 
-    from .check_cmd import NETWORK_FILE, load_network_arg
+    from .check_cmd import load_network_arg
 
     spec = load_hwspec(args.hw)
     if args.plots is not None and args.file is None:
@@ -51,17 +51,16 @@ def run(args: argparse.Namespace) -> int:
         dt = args.dt if args.dt is not None else spec.timing.time_step_ms
         activity = probe_activity(network, rate_hz=args.rate, duration_ms=args.duration, dt=dt, seed=args.seed,
                                   plots=args.plots)  # fmt: skip
-        report = estimate_energy(activity, spec, network=network, seed=args.seed)
+        report = estimate_energy(activity, spec, network=network, seed=args.seed, dt=dt)
         _print(report, activity, args.json)
         return 0
-    base = Path(args.run)
-    if not base.is_dir():
-        raise ValidationError(f"Run directory {args.run!r} does not exist.")
-    if not (base / ACTIVITY_FILE).is_file():
+    run = RunDir(args.run).require()
+    if not run.part(ACTIVITY_FILE).is_file():
         raise ValidationError(f"Run directory {args.run!r} has no {ACTIVITY_FILE}.")
-    activity = read_activity(base / ACTIVITY_FILE)
-    network = load_network_arg(args.run, None) if (base / NETWORK_FILE).is_file() else None
-    report = estimate_energy(activity, spec, network=network, seed=args.seed)
+    activity = read_activity(run.part(ACTIVITY_FILE))
+    network = run.load_network() if run.has_network else None
+    recorded = run.time_step()  # the step `neurovpr check --run` partitions at
+    report = estimate_energy(activity, spec, network=network, seed=args.seed, dt=None if recorded is None else recorded[0])
     _print(report, activity, args.json)
     return 0
 

@@ -19,6 +19,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backend", default=None, help="backend to evaluate on (default: the training backend)")
     p.add_argument("--seq-len", type=int, default=1, help="sequence length for sequence matching (default 1)")
     p.add_argument("--json", action="store_true", help="print exactly one JSON object")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
 
 
 def add_parser(sub: argparse._SubParsersAction) -> None:

@@ -24,6 +24,7 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--scheduler", default=None, help="Dask scheduler address for distributed training")
     p.add_argument("--resume", action="store_true", help="skip parts already finished in --out")
     p.add_argument("--json", action="store_true", help="print the summary as one JSON object")
+    p.add_argument("--no-progress", action="store_true", help="no progress bars")
 
 
 def _help(parser: argparse.ArgumentParser) -> None:

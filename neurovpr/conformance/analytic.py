@@ -11,6 +11,7 @@ so that an answer never depends on floating-point luck.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -203,6 +204,43 @@ def _first_crossing(values: np.ndarray, level: np.ndarray | float) -> int | None
     return int(hits[0]) if hits.size else None
 
 
+def _spikes_with_decaying_state(
+    membrane: Callable[[np.ndarray, float, float], tuple[np.ndarray, np.ndarray | float]],
+    *,
+    dt: float,
+    t_stop: float,
+    tau_refrac: float,
+    v_start: float,
+    v_reset: float,
+    state: float,
+    tau_state: float,
+    jump: float,
+) -> np.ndarray:
+    """Spike times on the step grid of a neuron with one state variable that decays and jumps at each spike.
+
+    ``membrane(s, v0, state)`` gives, at the times ``s`` (ms) after the membrane is free
+    again from ``v0`` with the state at ``state``, the membrane and the level it fires
+    at; a spike is the first step end where the membrane reaches its level. The state
+    decays with ``tau_state`` throughout and grows by ``jump`` at each spike; after a
+    spike the membrane is held at ``v_reset`` for ``tau_refrac``.
+    """
+    n_steps = round(t_stop / dt)
+    n_ref = round(tau_refrac / dt)
+    start, v0 = 0, v_start
+    times: list[float] = []
+    while start < n_steps:
+        s = np.arange(1, n_steps - start + 1) * dt
+        k = _first_crossing(*membrane(s, v0, state))
+        if k is None:
+            break
+        spike = start + k + 1
+        times.append(spike * dt)
+        state = state * math.exp(-(k + 1) * dt / tau_state) + jump
+        state *= math.exp(-n_ref * dt / tau_state)
+        start, v0 = spike + n_ref, v_reset
+    return np.asarray(times)
+
+
 def ca2_grid_spike_times(
     *,
     dt: float,
@@ -227,23 +265,16 @@ def ca2_grid_spike_times(
     tested against ``v_thresh`` at every step end. ``I_ca2`` decays with
     ``tau_ca2`` throughout and jumps by ``i_alpha`` at each spike.
     """
-    n_steps = round(t_stop / dt)
-    n_ref = round(tau_refrac / dt)
-    start, v0, ca = 0, v_rest, i_ca2
-    times: list[float] = []
-    while start < n_steps:
-        s = np.arange(1, n_steps - start + 1) * dt
+
+    def membrane(s: np.ndarray, v0: float, ca: float) -> tuple[np.ndarray, float]:
         u = (v0 - v_rest) * np.exp(-s / tau_m) + tau_m / cm * i_offset * (1 - np.exp(-s / tau_m))
         u -= ca * current_psp(s, weight=1.0, tau_m=tau_m, tau_syn=tau_ca2, cm=cm)
-        k = _first_crossing(v_rest + u, v_thresh)
-        if k is None:
-            break
-        spike = start + k + 1
-        times.append(spike * dt)
-        ca = ca * math.exp(-(k + 1) * dt / tau_ca2) + i_alpha
-        ca *= math.exp(-n_ref * dt / tau_ca2)
-        start, v0 = spike + n_ref, v_reset
-    return np.asarray(times)
+        return v_rest + u, v_thresh
+
+    return _spikes_with_decaying_state(
+        membrane, dt=dt, t_stop=t_stop, tau_refrac=tau_refrac, v_start=v_rest, v_reset=v_reset,
+        state=i_ca2, tau_state=tau_ca2, jump=i_alpha,
+    )  # fmt: skip
 
 
 def theta_grid_spike_times(
@@ -267,23 +298,15 @@ def theta_grid_spike_times(
     it spikes at the first step end where ``v >= v_thresh + theta``, with ``theta``
     decaying with ``tau_theta`` and growing by ``theta_plus`` at each spike.
     """
-    n_steps = round(t_stop / dt)
-    n_ref = round(tau_refrac / dt)
     v_inf = v_rest + tau_m / cm * i_offset
-    start, v0, theta = 0, v_rest, theta_init
-    times: list[float] = []
-    while start < n_steps:
-        s = np.arange(1, n_steps - start + 1) * dt
-        v = v_inf - (v_inf - v0) * np.exp(-s / tau_m)
-        k = _first_crossing(v, v_thresh + theta * np.exp(-s / tau_theta))
-        if k is None:
-            break
-        spike = start + k + 1
-        times.append(spike * dt)
-        theta = theta * math.exp(-(k + 1) * dt / tau_theta) + theta_plus
-        theta *= math.exp(-n_ref * dt / tau_theta)
-        start, v0 = spike + n_ref, v_reset
-    return np.asarray(times)
+
+    def membrane(s: np.ndarray, v0: float, theta: float) -> tuple[np.ndarray, np.ndarray]:
+        return v_inf - (v_inf - v0) * np.exp(-s / tau_m), v_thresh + theta * np.exp(-s / tau_theta)
+
+    return _spikes_with_decaying_state(
+        membrane, dt=dt, t_stop=t_stop, tau_refrac=tau_refrac, v_start=v_rest, v_reset=v_reset,
+        state=theta_init, tau_state=tau_theta, jump=theta_plus,
+    )  # fmt: skip
 
 
 def pair_stdp_weight(

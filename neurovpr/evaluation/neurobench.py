@@ -294,14 +294,14 @@ def neurobench_block(run_dir: str | Path) -> dict[str, Any]:
     evaluation's per-inference counts) and ``RUN_DIR/network.h5``; a run without either
     gets ``{"reason": ...}`` saying which is missing.
     """
+    from neurovpr.apps.rundir import NETWORK_FILE, RunDir
     from neurovpr.hardware.energy import ACTIVITY_FILE, read_activity
-    from neurovpr.ir.serialization import load
 
-    base = Path(run_dir)
-    for name in (ACTIVITY_FILE, "network.h5"):
-        if not (base / name).is_file():
+    run = RunDir(run_dir)
+    for name in (ACTIVITY_FILE, NETWORK_FILE):
+        if not run.part(name).is_file():
             return {"reason": f"the run directory has no {name}"}
-    return neurobench_from_activity(load(base / "network.h5"), read_activity(base / ACTIVITY_FILE))
+    return neurobench_from_activity(run.load_network(), read_activity(run.part(ACTIVITY_FILE)))
 
 
 def synaptic_op_summary(activity: Mapping[str, Any]) -> str:

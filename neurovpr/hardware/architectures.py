@@ -16,11 +16,11 @@ docs/hardware_architectures.md walks through adding one.
 
 from __future__ import annotations
 
-import importlib.metadata
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from neurovpr import entrypoints
 from neurovpr.errors import ValidationError
 
 if TYPE_CHECKING:
@@ -69,16 +69,9 @@ class Architecture:
     runs_at: Callable[[HwSpec], tuple[HwSpec, tuple[str, ...]]] = _as_run
 
 
-def _entry_points() -> dict[str, importlib.metadata.EntryPoint]:
-    found: dict[str, importlib.metadata.EntryPoint] = {}
-    for ep in sorted(importlib.metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda ep: ep.name):
-        found.setdefault(ep.name, ep)
-    return found
-
-
 def known_architectures() -> list[str]:
     """Names of the declared architectures, sorted."""
-    return sorted(_entry_points())
+    return entrypoints.declared_names(ENTRY_POINT_GROUP)
 
 
 def get_architecture(name: str) -> Architecture:
@@ -90,14 +83,9 @@ def get_architecture(name: str) -> Architecture:
         If none is declared under that name (the message lists the known ones), or its
         entry point does not load an :class:`Architecture`.
     """
-    points = _entry_points()
-    if name not in points:
-        known = ", ".join(points) or "none (is neurovpr installed?)"
-        raise ValidationError(f"Unknown architecture {name!r}; known architectures: {known}.")
-    try:
-        arch = points[name].load()
-    except Exception as exc:
-        raise ValidationError(f"Architecture {name!r} failed to load: {type(exc).__name__}: {exc}.") from exc
-    if not isinstance(arch, Architecture) or arch.name != name:
-        raise ValidationError(f"Entry point {points[name].value} does not provide the Architecture {name!r}.")
+    arch = entrypoints.load_declared(
+        ENTRY_POINT_GROUP, name, Architecture, what="architecture", unknown=ValidationError, broken=ValidationError
+    )
+    if arch.name != name:
+        raise ValidationError(f"Architecture {name!r} is declared, but its entry point provides {arch.name!r}.")
     return arch

@@ -43,9 +43,9 @@ from neurovpr.errors import ValidationError
 from neurovpr.fileio import atomic_write_text
 from neurovpr.ir.network import Network
 
+from .check import check_network
 from .hwspec import HwSpec, load_hwspec
 from .partition import Partition
-from .partition import partition as make_partition
 
 __all__ = [
     "ACTIVITY_FILE",
@@ -174,7 +174,7 @@ class EnergyReport:
     """Estimated energy per inference on one target, with its breakdown (joules)."""
 
     hardware: str
-    joules_per_inference: float
+    joules_per_inference: float | None
     breakdown: dict[str, float]
     seconds_per_inference: float
     chips: int
@@ -203,8 +203,13 @@ class EnergyReport:
 
     def table(self) -> str:
         """A human-readable breakdown."""
-        lines = [f"{self.hardware}: {self.joules_per_inference:.6g} J per inference "
-                 f"({self.seconds_per_inference:.6g} s on chip, {self.chips} chip(s))"]
+        if self.joules_per_inference is None:
+            total = "energy not estimated (no term has a published figure)"
+        elif self.not_estimated:
+            total = f"at least {self.joules_per_inference:.6g} J per inference (terms below not estimated)"
+        else:
+            total = f"{self.joules_per_inference:.6g} J per inference"
+        lines = [f"{self.hardware}: {total} ({self.seconds_per_inference:.6g} s on chip, {self.chips} chip(s))"]
         for key, joules in self.breakdown.items():
             share = 100 * joules / self.joules_per_inference if self.joules_per_inference else 0.0
             lines.append(f"  {key:<22} {joules:.6g} J  ({share:.1f}%)")
@@ -250,6 +255,7 @@ def estimate_energy(
     network: Network | None = None,
     partition: Partition | None = None,
     seed: int = 0,
+    dt: float | None = None,
 ) -> EnergyReport:
     """Joules per inference on ``hardware`` for the per-inference ``activity``.
 
@@ -264,13 +270,15 @@ def estimate_energy(
         cores it occupies (otherwise all chips of the target) and estimates chip crossings.
     partition
         A partition already computed for ``network`` on ``hardware`` (else computed here).
-    seed
-        Seed of random connectors when the partition is computed here.
+    seed, dt
+        Seed of random connectors and time step (ms; default the hwspec's) when the
+        partition is computed here: the partition :func:`~neurovpr.hardware.check.check_network`
+        makes for the fit verdict with the same ``dt`` and ``seed``.
     """
     spec = hardware if isinstance(hardware, HwSpec) else load_hwspec(hardware)
     energy = spec.energy
     if network is not None and partition is None:
-        partition = make_partition(network, spec, seed=seed)
+        partition = check_network(network, spec, seed=seed, dt=dt).partition
     steps = float(activity["steps"])
     dt = activity.get("dt_ms")
     hw_steps = steps * dt / spec.timing.time_step_ms if dt is not None else steps
@@ -331,7 +339,8 @@ def estimate_energy(
                "reason": "the run did not record CPU energy" if ok else reason}
     return EnergyReport(
         hardware=spec.name,
-        joules_per_inference=float(sum(breakdown.values())),
+        # Nothing with a published figure: no total rather than a misleading 0 J.
+        joules_per_inference=float(sum(breakdown.values())) if breakdown else None,
         breakdown=breakdown,
         seconds_per_inference=seconds,
         chips=chips,

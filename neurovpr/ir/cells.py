@@ -63,19 +63,30 @@ class CellType(IRNode):
         }
 
 
+@dataclass(**_KW)
 class NeuronType(CellType):
-    """Base of the integrate-and-fire neuron models."""
+    """Base of the integrate-and-fire neuron models: the parameters they all share.
 
-    __slots__ = ()
+    PyNN's names, defaults and units; each model adds its own (reversal potentials,
+    adaptation) after these.
+    """
+
     recordable = ("v", "isyn_exc", "isyn_inh")
 
+    cm: float = param(1.0, unit="nF", low=0.0, low_open=True, array=True)
+    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True, hint=_NO_LEAK_HINT)
+    tau_refrac: float = param(0.1, unit="ms", low=0.0, array=True)
+    tau_syn_E: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
+    tau_syn_I: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
+    v_rest: float = param(-65.0, unit="mV", array=True)
+    v_reset: float = param(-65.0, unit="mV", array=True)
+    v_thresh: float = param(-50.0, unit="mV", array=True, infinite="never fires")
+    i_offset: float = param(0.0, unit="nA", array=True)
+
     def _validate(self) -> None:
-        rest = np.asarray(self.v_reset)  # type: ignore[attr-defined]
-        thresh = np.asarray(self.v_thresh)  # type: ignore[attr-defined]
-        if np.any(rest >= thresh):
+        if np.any(np.asarray(self.v_reset) >= np.asarray(self.v_thresh)):
             raise ValidationError(
-                f"{type(self).__name__}.v_reset ({self.v_reset!r} mV) must be below "  # type: ignore[attr-defined]
-                f"v_thresh ({self.v_thresh!r} mV)."  # type: ignore[attr-defined]
+                f"{type(self).__name__}.v_reset ({self.v_reset!r} mV) must be below v_thresh ({self.v_thresh!r} mV)."
             )
 
 
@@ -94,16 +105,6 @@ class IF_curr_exp(NeuronType):  # noqa: N801 - PyNN's name
     a spike when ``v >= v_thresh``, then ``v = v_reset`` for ``tau_refrac``.
     """
 
-    cm: float = param(1.0, unit="nF", low=0.0, low_open=True, array=True)
-    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True, hint=_NO_LEAK_HINT)
-    tau_refrac: float = param(0.1, unit="ms", low=0.0, array=True)
-    tau_syn_E: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
-    tau_syn_I: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
-    v_rest: float = param(-65.0, unit="mV", array=True)
-    v_reset: float = param(-65.0, unit="mV", array=True)
-    v_thresh: float = param(-50.0, unit="mV", array=True, infinite="never fires")
-    i_offset: float = param(0.0, unit="nA", array=True)
-
 
 @dataclass(**_KW)
 class IF_cond_exp(NeuronType):  # noqa: N801 - PyNN's name
@@ -115,17 +116,8 @@ class IF_cond_exp(NeuronType):  # noqa: N801 - PyNN's name
     conductance_based = True
     recordable = ("v", "gsyn_exc", "gsyn_inh")
 
-    cm: float = param(1.0, unit="nF", low=0.0, low_open=True, array=True)
-    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True, hint=_NO_LEAK_HINT)
-    tau_refrac: float = param(0.1, unit="ms", low=0.0, array=True)
-    tau_syn_E: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
-    tau_syn_I: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
     e_rev_E: float = param(0.0, unit="mV", array=True)
     e_rev_I: float = param(-70.0, unit="mV", array=True)
-    v_rest: float = param(-65.0, unit="mV", array=True)
-    v_reset: float = param(-65.0, unit="mV", array=True)
-    v_thresh: float = param(-50.0, unit="mV", array=True, infinite="never fires")
-    i_offset: float = param(0.0, unit="nA", array=True)
 
 
 @dataclass(**_KW)
@@ -146,20 +138,11 @@ class IF_cond_exp_adaptive(NeuronType):  # noqa: N801 - PyNN-style name
     conductance_based = True
     recordable = ("v", "gsyn_exc", "gsyn_inh", "theta")
 
-    cm: float = param(1.0, unit="nF", low=0.0, low_open=True, array=True)
-    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True, hint=_NO_LEAK_HINT)
-    tau_refrac: float = param(0.1, unit="ms", low=0.0, array=True)
     tau_lockout: float = param(
         0.0, unit="ms", low=0.0, array=True, doc="time after a spike before the next may come (membrane free after tau_refrac)"
     )
-    tau_syn_E: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
-    tau_syn_I: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
     e_rev_E: float = param(0.0, unit="mV", array=True)
     e_rev_I: float = param(-70.0, unit="mV", array=True)
-    v_rest: float = param(-65.0, unit="mV", array=True)
-    v_reset: float = param(-65.0, unit="mV", array=True)
-    v_thresh: float = param(-50.0, unit="mV", array=True, infinite="never fires")
-    i_offset: float = param(0.0, unit="nA", array=True)
     theta_plus: float = param(0.05, unit="mV", low=0.0, array=True)
     tau_theta: float = param(1e7, unit="ms", low=0.0, low_open=True, array=True)
     theta_init: float = param(0.0, unit="mV", array=True)
@@ -176,15 +159,6 @@ class IF_curr_exp_ca2_adaptive(NeuronType):  # noqa: N801 - sPyNNaker's name
 
     recordable = ("v", "isyn_exc", "isyn_inh", "i_ca2")
 
-    cm: float = param(1.0, unit="nF", low=0.0, low_open=True, array=True)
-    tau_m: float = param(20.0, unit="ms", low=0.0, low_open=True, array=True, hint=_NO_LEAK_HINT)
-    tau_refrac: float = param(0.1, unit="ms", low=0.0, array=True)
-    tau_syn_E: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
-    tau_syn_I: float = param(5.0, unit="ms", low=0.0, low_open=True, array=True)
-    v_rest: float = param(-65.0, unit="mV", array=True)
-    v_reset: float = param(-65.0, unit="mV", array=True)
-    v_thresh: float = param(-50.0, unit="mV", array=True, infinite="never fires")
-    i_offset: float = param(0.0, unit="nA", array=True)
     tau_ca2: float = param(50.0, unit="ms", low=0.0, low_open=True, array=True)
     i_ca2: float = param(0.0, unit="nA", array=True)
     i_alpha: float = param(0.1, unit="nA", array=True)

@@ -10,6 +10,7 @@ import importlib.metadata
 from dataclasses import dataclass
 from typing import Any
 
+from neurovpr import entrypoints
 from neurovpr.errors import BackendUnavailableError
 from neurovpr.runtime.backend import Backend
 
@@ -43,10 +44,6 @@ class BackendInfo:
         }
 
 
-def _entry_points() -> list[importlib.metadata.EntryPoint]:
-    return sorted(importlib.metadata.entry_points(group=ENTRY_POINT_GROUP), key=lambda ep: ep.name)
-
-
 def _info(ep: importlib.metadata.EntryPoint) -> BackendInfo:
     try:
         backend = ep.load()
@@ -68,7 +65,7 @@ def _info(ep: importlib.metadata.EntryPoint) -> BackendInfo:
 
 def declared_names() -> list[str]:
     """Names of every declared backend, sorted (nothing is loaded)."""
-    return list(dict.fromkeys(ep.name for ep in _entry_points()))
+    return entrypoints.declared_names(ENTRY_POINT_GROUP)
 
 
 def backend_info(name: str) -> BackendInfo:
@@ -79,20 +76,16 @@ def backend_info(name: str) -> BackendInfo:
     BackendUnavailableError
         If no backend has that name.
     """
-    matches = [ep for ep in _entry_points() if ep.name == name]
-    if not matches:
-        known = ", ".join(declared_names()) or "none (is neurovpr installed?)"
+    points = entrypoints.declared(ENTRY_POINT_GROUP)
+    if name not in points:
+        known = ", ".join(points) or "none (is neurovpr installed?)"
         raise BackendUnavailableError(f"Unknown backend {name!r}; known backends: {known}.")
-    return _info(matches[0])
+    return _info(points[name])
 
 
 def discover() -> dict[str, BackendInfo]:
     """Load every declared backend and report whether its simulator imports."""
-    infos: dict[str, BackendInfo] = {}
-    for ep in _entry_points():
-        if ep.name not in infos:
-            infos[ep.name] = _info(ep)
-    return infos
+    return {name: _info(ep) for name, ep in entrypoints.declared(ENTRY_POINT_GROUP).items()}
 
 
 def get_backend(name: str) -> Backend:
@@ -106,17 +99,9 @@ def get_backend(name: str) -> Backend:
     """
     if not isinstance(name, str):
         raise BackendUnavailableError(f"Backend name must be a string, got {name!r}.")
-    matches = [ep for ep in _entry_points() if ep.name == name]
-    if not matches:
-        known = ", ".join(declared_names()) or "none (is neurovpr installed?)"
-        raise BackendUnavailableError(f"Unknown backend {name!r}; known backends: {known}.")
-    try:
-        backend = matches[0].load()
-    except Exception as exc:
-        raise BackendUnavailableError(f"Backend {name!r} failed to load: {type(exc).__name__}: {exc}.") from exc
-    if not isinstance(backend, Backend):
-        raise BackendUnavailableError(f"Backend {name!r} does not provide a neurovpr Backend.")
-    return backend
+    return entrypoints.load_declared(
+        ENTRY_POINT_GROUP, name, Backend, what="backend", unknown=BackendUnavailableError, broken=BackendUnavailableError
+    )
 
 
 def backend_infos() -> list[BackendInfo]:

@@ -450,3 +450,25 @@ def test_runtime_stops_at_interpreter_exit():
     )
     assert done.returncode == 0, done.stderr[-2000:]
     assert "ran 5.0" in done.stdout
+
+
+def test_fixed_delay_limit_is_the_hwspecs_delay_field():
+    """lava-fixed's delay limit is the loihi2 hwspec's 6-bit delay field (63 steps, Lava's DelayDense range).
+
+    It differs on purpose from ``[timing] max_delay_steps`` (62, Loihi 1's chip figure that
+    ``neurovpr check`` uses): see ``max_fixed_delay_steps``.
+    """
+    from neurovpr.backends.lava.capabilities import compile_problems, max_fixed_delay_steps
+    from neurovpr.hardware.hwspec import load_hwspec
+
+    spec = load_hwspec("loihi2")
+    assert max_fixed_delay_steps() == 2**spec.rules.delay_bits - 1 == 63
+    assert spec.timing.max_delay_steps == 62
+    for steps, refused in ((63, False), (64, True)):
+        net = nv.Network("delay")
+        net.add_population("a", 1, nv.IF_curr_exp())
+        net.add_population("b", 1, nv.IF_curr_exp())
+        net.connect("a", "b", nv.OneToOneConnector(), nv.StaticSynapse(weight=1.0, delay=steps * 0.1), name="ab")
+        problems = compile_problems(net, {"ab": nv.expand(net, "ab", dt=0.1, seed=0)}, 0.1, fixed=True)
+        assert problems == ([f"delay {steps * 0.1:g} ms = {steps} steps (projection 'ab'; Loihi 2 delays are at most 63 steps)"]
+                            if refused else [])  # fmt: skip

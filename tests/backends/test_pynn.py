@@ -223,6 +223,29 @@ def test_nest_spikes_equal_reference() -> None:
     assert stats["pynn"] == stats["reference"] and stats["pynn"]["synaptic_events"] > 0
 
 
+def test_nest_threads_give_the_same_spikes_and_weights() -> None:
+    """``threads=2`` runs NEST on two threads with the one-thread run's spikes and learned weights."""
+    _needs(NEST)
+    net = _input_network()
+    net.connect("inp", "inh", nv.AllToAllConnector(), _stdp(), name="plastic")
+    out = {}
+    for threads in (1, 2):
+        sim = NEST.compile(net, dt=0.1, seed=4, threads=threads)
+        sim.run(120.0)
+        out[threads] = ({p: sim.spike_trains(p) for p in ("exc", "inh")}, sim.weights("plastic", format="list"))
+        sim.close()
+    for pop in ("exc", "inh"):
+        for k in (0, 1):
+            np.testing.assert_array_equal(out[2][0][pop][k], out[1][0][pop][k], err_msg=pop)
+    assert out[1][0]["inh"][0].size > 0
+    np.testing.assert_array_equal(out[2][1], out[1][1])
+    for bad in (0, 1.5, True):
+        with pytest.raises(nv.ValidationError, match="threads"):
+            NEST.compile(net, dt=0.1, seed=4, threads=bad)
+    with pytest.raises(nv.ValidationError, match="needs NEST"):
+        BRIAN2.compile(net, dt=0.1, seed=4, threads=2)
+
+
 def test_nest_statistics_count_plastic_updates_and_survive_reset() -> None:
     """One pre and one post spike on one plastic connection: 2 plastic updates; reset() keeps the totals."""
     _needs(NEST)

@@ -353,3 +353,26 @@ def test_modular_snn_deployed_on_nengo_and_same_as_eval_on_reference(dataset: Pa
     expected = MODEL.evaluate(ev)["metrics"]
     for key, value in expected.items():
         assert ref.metrics[key] == pytest.approx(value, abs=1e-6), key
+
+
+def test_energy_and_verdict_share_the_partition_check_makes(plugin: TemplatePlugin, dataset: Path, runs: dict[str, Path],
+                                                           tmp_path: Path, capsys: pytest.CaptureFixture[str]):  # fmt: skip
+    """compare --hw partitions once, as `check --run` does (the run's dt, the caller's seed); energy uses that partition."""
+    import shutil
+
+    from neurovpr.cli.main import main
+    from neurovpr.hardware.check import check_network
+
+    run = Path(shutil.copytree(runs["curr"], tmp_path / "run"))
+    (run / "run.json").write_text(json.dumps({"model": plugin.name, "backend": "reference", "seed": 0, "dt_ms": 0.1}))
+    network = nv.load(run / "network.h5")
+    cores = {dt: len(check_network(network, "spinn5", dt=dt, seed=5).partition.cores) for dt in (0.1, 1.0)}
+    assert cores[0.1] != cores[1.0]  # sPyNNaker splits synapse cores below 1 ms: the step matters
+    result = compare.compare_model(run, dataset, "reference", hardware="spinn5", seed=5, progress=False)
+    assert main(["check", "--run", str(run), "--hw", "spinn5", "--seed", "5", "--json"]) == 0
+    checked = json.loads(capsys.readouterr().out)
+    assert result.hardware_fit == {"fits": checked["fits"], "dt_ms": 0.1, "chips": checked["chips"],
+                                   "cores": checked["cores"], "violations": 0}  # fmt: skip
+    assert result.rows[0].energy["cores"] == checked["cores"] == cores[0.1]
+    assert any("the partition every energy figure uses" in note for note in result.notes())
+    assert result.as_dict()["hardware_fit"]["cores"] == cores[0.1]

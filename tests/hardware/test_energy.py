@@ -148,3 +148,20 @@ def test_cli_energy(tmp_path, capsys, neurovpr_main):
     assert f"{STATS['synaptic_events'] / 10:g} accumulates (NeuroBench Effective_ACs" in text
     assert neurovpr_main(["energy", "--run", str(tmp_path), "--hw", "spinn5"]) == 2
     assert "has no activity.json" in capsys.readouterr().err
+
+
+def test_cli_energy_partitions_at_the_runs_time_step(tmp_path, capsys, neurovpr_main):
+    """``energy --run`` counts the cores of the partition ``check --run`` makes: the step run.json records, --seed."""
+    from hw_models import sub_ms_net
+
+    from neurovpr.hardware import check_network
+
+    run = tmp_path / "run"
+    write_activity(run, STATS, 10, dt_ms=0.1)
+    nv.save(sub_ms_net(), run / "network.h5")
+    (run / "run.json").write_text(json.dumps({"model": "mbsnn", "dt_ms": 0.1}), encoding="utf-8")
+    cores = {dt: len(check_network(sub_ms_net(), "spinn5", dt=dt, seed=3).partition.cores) for dt in (0.1, 1.0)}
+    assert cores[0.1] > cores[1.0]
+    for command in ("energy", "check"):
+        assert neurovpr_main([command, "--run", str(run), "--hw", "spinn5", "--seed", "3", "--json"]) == 0
+        assert json.loads(capsys.readouterr().out)["cores"] == cores[0.1]

@@ -13,6 +13,7 @@ import neurovpr as nv
 from neurovpr.hardware import load_hwspec
 
 kf = pytest.importorskip("neurovpr.backends.reference.kernels_fixed")
+kl = pytest.importorskip("neurovpr.backends.reference.kernel_layout")
 
 
 # -- SpiNNaker (spinn5) -----------------------------------------------------------------
@@ -61,10 +62,10 @@ def test_ring_buffer_shift_and_saturation():
     assert np.all(sim.quantised.weights["src->n"]["value"] == 2**11)
     np.testing.assert_array_equal(sim.weights("src->n"), 0.5)
     acc = np.zeros((2, 1), dtype=np.int64)
-    args = (np.zeros(1, np.int64), np.zeros(1, np.bool_), np.zeros(4, np.int64), np.zeros(4, np.int64),
-            np.zeros(1, np.int64), np.array([0, 1]), np.array([0]), np.array([40000]), np.array([1]))  # fmt: skip
+    record = kl.SpikeRecord(np.zeros(1, np.bool_), np.zeros(4, np.int64), np.zeros(4, np.int64), np.zeros(1, np.int64))
+    syn = kf.FixedSynapses(np.array([0, 1]), np.array([0]), np.array([40000]), np.array([1]))
     for _ in range(2):
-        kf._emit(0, 0, *args, acc, 2**16 - 1, np.zeros(5, np.int64))
+        kf._emit(0, 0, np.zeros(1, np.int64), np.zeros(5, np.int64), record, syn, acc, 2**16 - 1)
     assert acc[1, 0] == 2**16 - 1
 
 

@@ -34,7 +34,7 @@ from neurovpr.models.modular_snn import (
     train_run,
 )
 from neurovpr.models.modular_snn.parallel import read_npz
-from neurovpr.models.modular_snn.runs import (
+from neurovpr.models.modular_snn.plan import (
     calibration_places,
     default_calibration_places,
     describe_plan,

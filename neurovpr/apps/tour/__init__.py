@@ -28,6 +28,7 @@ from typing import Any
 import numpy as np
 
 from neurovpr import models
+from neurovpr.apps.rundir import RunDir
 from neurovpr.fileio import atomic_write_text
 
 from .backends_part import TOUR_BACKENDS, run_backends
@@ -90,14 +91,12 @@ def _pn_recording(path: Path, size: TourSize, seed: int) -> Path:
 
 def _mbsnn_network(folder: Path, size: TourSize, seed: int) -> Any:
     """The mushroom body at ``size`` (the paper's 840 PNs and 4000 KCs by default), trained through its plug-in."""
-    import neurovpr as nv
-
     recording = _pn_recording(folder / "route_pn.mat", size, seed)
     models.get("mbsnn").train(
         data=recording, out=folder / "mbsnn", seed=seed, progress=False,
         n_kc=size.n_kc, kc_groups=size.kc_groups, n_pn=size.n_pn, timestep=1.0, keep_still=True,
     )  # fmt: skip
-    return nv.load(folder / "mbsnn" / "network.h5")
+    return RunDir(folder / "mbsnn").load_network()
 
 
 def _machine() -> str:
@@ -113,7 +112,6 @@ def run_tour(
     ``backends`` and ``onchip_backends`` choose the backends of parts 1 and 3 (the first
     that runs is the reference of comparison); ``log`` receives one line per part.
     """
-    import neurovpr as nv
     from neurovpr.data.generic import write_generic
     from neurovpr.data.synthetic import AppearanceChange, synthetic_traverse
 
@@ -140,7 +138,7 @@ def run_tour(
         mbsnn = _mbsnn_network(tmp, size, seed)
         locsnet_run = tmp / "locsnet"
         train_locsnet(data, locsnet_run, epochs=size.locsnet_epochs, seed=seed)
-        locsnet = nv.load(locsnet_run / "network.h5")
+        locsnet = RunDir(locsnet_run).load_network()
         fit = [
             fit_check(mbsnn, "spinn5", out, dt=1.0, label="mbsnn_spinn5"),
             fit_check(locsnet, "kapoho-bay", out, dt=1.0, label="locsnet_kapoho-bay"),

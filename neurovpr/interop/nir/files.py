@@ -246,7 +246,7 @@ def _export(
         from neurovpr.ir.serialization import save
 
         with tempfile.TemporaryDirectory(prefix="neurovpr-nir-") as tmp:
-            path = Path(tmp) / "network.h5"
+            path = Path(tmp) / "embedded.h5"
             save(network, path)
             graph.metadata[_BLOB] = np.frombuffer(path.read_bytes(), dtype=np.uint8).copy()
     return graph, notes
@@ -281,7 +281,7 @@ def _restore(graph: Any, meta: dict[str, Any], dt: float, integration: str, note
         notes.append("The graph's neurovpr metadata is not a network file; it was imported from its NIR nodes.")
         return None
     with tempfile.TemporaryDirectory(prefix="neurovpr-nir-") as tmp:
-        path = Path(tmp) / "network.h5"
+        path = Path(tmp) / "embedded.h5"
         path.write_bytes(blob.tobytes())
         try:
             network = load(path)

@@ -1,0 +1,127 @@
+"""The neuron updates of the float step loop: one group of neurons with identical parameters per call."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .kernel_layout import (
+    C_CM,
+    C_E_REV_E,
+    C_E_REV_I,
+    C_FE,
+    C_FI,
+    C_GL,
+    C_I_OFFSET,
+    C_LOCK,
+    C_P11CA,
+    C_P11E,
+    C_P11I,
+    C_P20,
+    C_P21CA,
+    C_P21E,
+    C_P21I,
+    C_P22,
+    C_THETA_DECAY,
+    C_V_REST,
+    C_V_THRESH,
+    F_ADAPTIVE,
+    F_CA,
+    F_INH,
+)
+
+#: Synaptic currents (nA) and conductances (uS) below this are set to 0: their effect on
+#: the membrane is below 1e-19 mV per step, far below double precision of v.
+FLUSH = 1e-18
+
+
+@njit(inline="always", _nrt=False)
+def flush(x: float) -> float:
+    """``x``, or 0 when its magnitude is below ``FLUSH``."""
+    return x if abs(x) >= FLUSH else 0.0
+
+
+@njit(_nrt=False)
+def update_curr(lo, hi, flags, neurons):
+    """Advance the current-based neurons ``lo:hi`` with the parameters of neuron ``lo``; return how many spiked.
+
+    One loop per set of non-zero terms (Ca2+ and inhibitory currents, inhibitory only,
+    neither), each free of branches so that it compiles to vector instructions.
+    """
+    params, v, ie, ii = neurons.params, neurons.v, neurons.ie, neurons.ii
+    ica, refr, flag = neurons.ica, neurons.refr, neurons.flag
+    ulo, uhi = np.uint64(lo), np.uint64(hi)  # unsigned indices: no negative-index wrap, so the loops vectorise
+    rest, p22, p21e, p11e = params[lo, C_V_REST], params[lo, C_P22], params[lo, C_P21E], params[lo, C_P11E]
+    p21i, p11i, p21ca, p11ca = params[lo, C_P21I], params[lo, C_P11I], params[lo, C_P21CA], params[lo, C_P11CA]
+    i_off, p20, v_th = params[lo, C_I_OFFSET], params[lo, C_P20], params[lo, C_V_THRESH]
+    n_spikes = 0
+    if flags & F_CA:
+        for q in range(ulo, uhi):
+            r, vq, a, b, c = refr[q], v[q], ie[q], ii[q], ica[q]
+            moved = rest + (vq - rest) * p22 + a * p21e - b * p21i - c * p21ca + i_off * p20
+            vq = vq if r > 0 else moved
+            r = r - 1 if r > 0 else r
+            ie[q] = flush(a * p11e)
+            ii[q] = flush(b * p11i)
+            ica[q] = flush(c * p11ca)
+            spike = (vq >= v_th) & (r == 0)
+            v[q], refr[q], flag[q] = vq, r, spike
+            n_spikes += spike
+    elif flags & F_INH:
+        for q in range(ulo, uhi):
+            r, vq, a, b = refr[q], v[q], ie[q], ii[q]
+            moved = rest + (vq - rest) * p22 + a * p21e - b * p21i + i_off * p20
+            vq = vq if r > 0 else moved
+            r = r - 1 if r > 0 else r
+            ie[q] = flush(a * p11e)
+            ii[q] = flush(b * p11i)
+            spike = (vq >= v_th) & (r == 0)
+            v[q], refr[q], flag[q] = vq, r, spike
+            n_spikes += spike
+    else:
+        for q in range(ulo, uhi):
+            r, vq, a = refr[q], v[q], ie[q]
+            moved = rest + (vq - rest) * p22 + a * p21e + i_off * p20
+            vq = vq if r > 0 else moved
+            r = r - 1 if r > 0 else r
+            ie[q] = flush(a * p11e)
+            spike = (vq >= v_th) & (r == 0)
+            v[q], refr[q], flag[q] = vq, r, spike
+            n_spikes += spike
+    return n_spikes
+
+
+@njit(inline="always", _nrt=False)
+def update_cond(lo, hi, flags, dt, plastic_on, neurons):
+    """Advance the conductance-based neurons ``lo:hi`` with the parameters of neuron ``lo``; return how many spiked."""
+    params, v, ie, ii = neurons.params, neurons.v, neurons.ie, neurons.ii
+    theta, refr, flag = neurons.theta, neurons.refr, neurons.flag
+    rest, p22, i_off, p20 = params[lo, C_V_REST], params[lo, C_P22], params[lo, C_I_OFFSET], params[lo, C_P20]
+    fe, fi, gl, cm = params[lo, C_FE], params[lo, C_FI], params[lo, C_GL], params[lo, C_CM]
+    e_rev_e, e_rev_i, v_th = params[lo, C_E_REV_E], params[lo, C_E_REV_I], params[lo, C_V_THRESH]
+    p11e, p11i, theta_decay = params[lo, C_P11E], params[lo, C_P11I], params[lo, C_THETA_DECAY]
+    lock = np.int64(params[lo, C_LOCK])  # the last `lock` steps of the count: free membrane, no spike yet
+    adapt = plastic_on and (flags & F_ADAPTIVE) != 0
+    n_spikes = 0
+    for i in range(lo, hi):
+        if refr[i] > lock:
+            refr[i] -= 1
+        else:
+            if refr[i] > 0:
+                refr[i] -= 1
+            if ie[i] == 0.0 and ii[i] == 0.0:  # no conductance: the leak alone (P22 = exp(-dt gL / cm))
+                v[i] = rest + (v[i] - rest) * p22 + i_off * p20
+            else:
+                ge = ie[i] * fe
+                gi = ii[i] * fi
+                gt = gl + ge + gi
+                v_inf = (gl * rest + ge * e_rev_e + gi * e_rev_i + i_off) / gt
+                v[i] = v_inf + (v[i] - v_inf) * np.exp(-dt * gt / cm)
+        ie[i] = flush(ie[i] * p11e)
+        ii[i] = flush(ii[i] * p11i)
+        if adapt:
+            theta[i] *= theta_decay
+        spike = v[i] >= v_th + theta[i] and refr[i] == 0
+        flag[i] = spike
+        n_spikes += spike
+    return n_spikes

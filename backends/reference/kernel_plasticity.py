@@ -1,0 +1,217 @@
+"""Plastic synapses in the float step loop: arrivals (depression, delivery, pre traces), potentiation, post traces."""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from .kernel_layout import (
+    R_DEP,
+    R_KIND,
+    R_MU,
+    R_POT,
+    R_TAU_POST2,
+    R_TAU_PRE,
+    R_W_MAX,
+    R_W_MIN,
+    R_X_TAR,
+    RULE_ADDITIVE,
+    RULE_DIEHL_COOK,
+    RULE_MULTIPLICATIVE,
+)
+from .prefetch import prefetch
+
+
+@njit(inline="always", _nrt=False)
+def table_decay(x, steps, table, r, dt, tau):
+    """``x * exp(-steps * dt / tau)`` with the factor from rule ``r``'s table when it holds it.
+
+    Past the table, a row ending in 0 has decayed to exactly 0 (``exp`` is monotone,
+    see :func:`.translation.extend_pre_table`).
+    """
+    if x == 0.0:
+        return 0.0
+    width = table.shape[1]
+    if steps < width:
+        return x * table[r, steps]
+    if table[r, width - 1] == 0.0:
+        return x * 0.0
+    return x * np.exp(-steps * dt / tau)
+
+
+@njit(_nrt=False)
+def arrive(g, nxt, j, dt, plastic_on, syn, stdp, isyn):
+    """Spikes arriving at segment ``g`` at step ``j``: depress, deliver, advance the pre trace.
+
+    Each synapse is first depressed by the postsynaptic trace (its value at time ``j``)
+    and then delivers its new weight to ``isyn[0]`` (excitatory) or ``isyn[1]``
+    (inhibitory). Returns the number of weight updates. ``nxt`` is the first synapse of
+    the segment that arrives next: its weights and targets are prefetched meanwhile, a
+    line every 8 synapses (segments lie apart, so the hardware prefetcher would start
+    on each one late). ``syn`` and ``stdp`` are a ``PlasticTables`` and ``Traces`` (:mod:`.kernel_layout`).
+    """
+    seg_start, seg_proj, p_post, p_w, proj_inh = syn.seg_start, syn.seg_proj, syn.p_post, syn.p_w, syn.proj_inh
+    seg_xpre, seg_last, rules, pre_table, tr_shift = stdp.seg_xpre, stdp.seg_last, stdp.rules, stdp.pre_table, stdp.tr_shift
+    xpost1 = stdp.xpost1
+    r = seg_proj[g]
+    rk = rules[r, R_KIND]
+    shift = tr_shift[r]  # trace of post neuron i: i + shift (>= 0)
+    w_min, w_max, dep = rules[r, R_W_MIN], rules[r, R_W_MAX], rules[r, R_DEP]
+    target = np.uint64(1 if proj_inh[r] else 0)
+    lo, hi = np.uint64(seg_start[g]), np.uint64(seg_start[g + 1])
+    ahead = np.uint64(nxt) - lo  # wraps when the next segment lies before this one: the sum below is exact
+    updates = 0
+    if not plastic_on:
+        for q in range(lo, hi):
+            if (q & np.uint64(7)) == 0:
+                prefetch(p_w, ahead + q)
+                prefetch(p_post, ahead + q)
+            isyn[target, p_post[q]] += p_w[q]
+    elif rk == RULE_ADDITIVE:
+        step = dep * w_max
+        for q in range(lo, hi):  # without branches: a zero trace keeps the weight
+            if (q & np.uint64(7)) == 0:
+                prefetch(p_w, ahead + q)
+                prefetch(p_post, ahead + q)
+            post = p_post[q]
+            x_post = xpost1[np.uint64(post + shift)]
+            w = p_w[q]
+            moved = min(max(w - step * x_post, w_min), w_max)
+            w = moved if x_post != 0.0 else w
+            p_w[q] = w
+            updates += x_post != 0.0
+            isyn[target, post] += w
+    else:
+        for q in range(lo, hi):
+            post = p_post[q]
+            x_post = xpost1[np.uint64(post + shift)]
+            if x_post != 0.0:
+                w = p_w[q]
+                if rk == RULE_MULTIPLICATIVE:
+                    w -= dep * (w - w_min) * x_post
+                else:
+                    w -= dep * x_post
+                p_w[q] = min(max(w, w_min), w_max)
+                updates += 1
+            isyn[target, post] += p_w[q]
+    if rk == RULE_DIEHL_COOK:
+        seg_xpre[g] = 1.0
+    else:
+        seg_xpre[g] = table_decay(seg_xpre[g], j - seg_last[g], pre_table, r, dt, rules[r, R_TAU_PRE]) + 1.0
+    seg_last[g] = j
+    return updates
+
+
+@njit(_nrt=False)
+def potentiate(i, t, dt, syn, stdp):
+    """Potentiate the plastic synapses onto neuron ``i``, which spikes at step ``t``; return the updates.
+
+    The presynaptic traces are gathered first (into ``x_pre``, one per incoming synapse)
+    while the weights are prefetched, so the scattered weight updates that follow do not
+    wait on one another. When all the synapses follow one rule (``post_rule[i] >= 0``)
+    whose decay table ends in 0, the gathering has no branches (a look-up clamped to
+    the table's end is :func:`table_decay`); when that rule is additive, neither has
+    the update loop. ``syn`` and ``stdp`` are a ``PlasticTables`` and ``Traces`` (:mod:`.kernel_layout`).
+    """
+    post_ptr, post_syn, post_seg, post_rule = syn.post_ptr, syn.post_syn, syn.post_seg, syn.post_rule
+    seg_proj, p_w = syn.seg_proj, syn.p_w
+    seg_xpre, seg_last, rules, pre_table = stdp.seg_xpre, stdp.seg_last, stdp.rules, stdp.pre_table
+    tr_shift, xpost2, x_pre = stdp.tr_shift, stdp.xpost2, stdp.x_pre
+    lo = post_ptr[i]
+    n = post_ptr[i + 1] - lo
+    if n == 0:
+        return 0
+    r0 = post_rule[i]
+    base = np.uint64(lo)  # unsigned indices: no negative-index wrap
+    last = pre_table.shape[1] - 1
+    if r0 >= 0 and pre_table[r0, last] == 0.0:
+        for q in range(np.uint64(n)):
+            prefetch(p_w, post_syn[base + q])  # the weights load while the traces are computed
+            g = np.uint64(post_seg[base + q])
+            x_pre[q] = seg_xpre[g] * pre_table[r0, min(t - seg_last[g], last)]
+    elif r0 >= 0:
+        tau = rules[r0, R_TAU_PRE]
+        for q in range(np.uint64(n)):
+            prefetch(p_w, post_syn[base + q])
+            g = np.uint64(post_seg[base + q])
+            x_pre[q] = table_decay(seg_xpre[g], t - seg_last[g], pre_table, r0, dt, tau)
+    else:
+        for q in range(np.uint64(n)):
+            prefetch(p_w, post_syn[base + q])
+            g = np.uint64(post_seg[base + q])
+            r = seg_proj[g]
+            x_pre[q] = table_decay(seg_xpre[g], t - seg_last[g], pre_table, r, dt, rules[r, R_TAU_PRE])
+    updates = 0
+    if r0 >= 0 and rules[r0, R_KIND] == RULE_ADDITIVE:
+        w_min, w_max = rules[r0, R_W_MIN], rules[r0, R_W_MAX]
+        step = rules[r0, R_POT] * w_max
+        for q in range(np.uint64(n)):
+            x = x_pre[q]
+            k = np.uint64(post_syn[base + q])
+            w = p_w[k]
+            moved = min(max(w + step * x, w_min), w_max)
+            p_w[k] = moved if x != 0.0 else w
+            updates += x != 0.0
+        return updates
+    for q in range(n):
+        x = x_pre[q]
+        k = post_syn[lo + q]
+        r = seg_proj[post_seg[lo + q]]
+        rk = rules[r, R_KIND]
+        w = p_w[k]
+        w_min, w_max = rules[r, R_W_MIN], rules[r, R_W_MAX]
+        if rk == RULE_ADDITIVE:  # without branches: a zero trace keeps the weight
+            moved = min(max(w + rules[r, R_POT] * w_max * x, w_min), w_max)
+            p_w[k] = moved if x != 0.0 else w
+            updates += x != 0.0
+            continue
+        if rk == RULE_MULTIPLICATIVE:
+            if x == 0.0:
+                continue
+            w += rules[r, R_POT] * (w_max - w) * x
+        else:
+            factor = (x - rules[r, R_X_TAR]) * (w_max - w) ** rules[r, R_MU]
+            if rules[r, R_TAU_POST2] > 0.0:
+                factor *= xpost2[i + tr_shift[r]]
+            if factor == 0.0:
+                continue
+            w += rules[r, R_POT] * factor
+        p_w[k] = min(max(w, w_min), w_max)
+        updates += 1
+    return updates
+
+
+@njit(inline="always", _nrt=False)
+def post_traces(i, stdp):
+    """Update the postsynaptic traces of neuron ``i`` for its spike (traces are at its time already)."""
+    post_tr_ptr, post_tr_idx, trace_proj, rules = stdp.post_tr_ptr, stdp.post_tr_idx, stdp.trace_proj, stdp.rules
+    xpost1, xpost2 = stdp.xpost1, stdp.xpost2
+    for q in range(post_tr_ptr[i], post_tr_ptr[i + 1]):
+        tr = post_tr_idx[q]
+        if rules[trace_proj[tr], R_KIND] == RULE_DIEHL_COOK:
+            xpost1[tr] = 1.0
+            xpost2[tr] = 1.0
+        else:
+            xpost1[tr] += 1.0
+
+
+@njit(inline="always", _nrt=False)
+def decay_post_traces(stdp):
+    """Advance every postsynaptic trace by one step.
+
+    The second trace is only ever non-zero under the Diehl & Cook rule, so only those
+    projections decay it.
+    """
+    rules, tr_lo, tr_hi, xpost1, xpost2 = stdp.rules, stdp.tr_lo, stdp.tr_hi, stdp.xpost1, stdp.xpost2
+    post_decay1, post_decay2 = stdp.post_decay1, stdp.post_decay2
+    for r in range(tr_lo.size):
+        lo, hi = tr_lo[r], tr_hi[r]
+        if hi == lo:
+            continue
+        d1 = post_decay1[lo]
+        for q in range(np.uint64(lo), np.uint64(hi)):
+            xpost1[q] *= d1
+        if rules[r, R_KIND] == RULE_DIEHL_COOK:
+            d2 = post_decay2[lo]
+            for q in range(np.uint64(lo), np.uint64(hi)):
+                xpost2[q] *= d2
