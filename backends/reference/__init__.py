@@ -43,6 +43,10 @@ class ReferenceBackend(Backend):
             from .xylo import XyloSimulation
 
             return XyloSimulation(network, dt=dt, seed=seed, hardware=hardware, **options)
+        if hardware is not None and hardware.spec.formats.arithmetic == "speck":
+            from .speck import SpeckSimulation
+
+            return SpeckSimulation(network, dt=dt, seed=seed, hardware=hardware, **options)
         if hardware is not None:
             from .fixed_point import FixedPointSimulation
 

@@ -17,13 +17,15 @@ from neurovpr.runtime.backend import Capabilities
 #: variables recorded in each (backends/reference/fixed_point.py; docs/number_formats.md): Loihi 1
 #: as NengoLoihi's emulator computes it, Loihi 2 as Lava's bit-accurate process models do,
 #: SpiNNaker as sPyNNaker's LIF, Xylo
-#: Audio 2 as XyloSim's C++ model (backends/reference/xylo.py).
+#: Audio 2 as XyloSim's C++ model (backends/reference/xylo.py), Speck as Sinabs's discretised
+#: DYNAP-CNN layers (backends/reference/speck.py).
 RECORDABLE_ON_HARDWARE = MappingProxyType(
     {
         "loihi1": frozenset({"v"}),
         "loihi2": frozenset({"v"}),
         "spinnaker": frozenset({"v", "isyn_exc", "isyn_inh", "gsyn_exc", "gsyn_inh", "i_ca2"}),
         "xylo": frozenset({"v"}),
+        "speck": frozenset({"v"}),
     }
 )
 

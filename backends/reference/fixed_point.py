@@ -54,6 +54,10 @@ def emulation_problem(network: Network, spec: HwSpec, dt: float) -> Exception | 
         from .xylo import xylo_problem
 
         return xylo_problem(network, dt, step)
+    if variant == "speck":
+        from .speck import speck_problem
+
+        return speck_problem(network, spec, dt)
     if not math.isclose(dt, step, rel_tol=1e-9):
         return ValidationError(
             f"compile: hardware {spec.name!r} runs in steps of {step:g} ms ([timing].time_step_ms), got dt={dt:g} ms."
@@ -136,6 +140,15 @@ class FixedPointSimulation(ReferenceSimulation):
         else:
             self._v_i = fx.params[:, kf.L_V_INIT].copy()
             self._u_i, self._q_i = np.zeros(n, dtype=np.int64), np.zeros(n, dtype=np.int64)
+
+    def _integer_ring(self) -> FixedLayout:
+        """Quantise once (again after ``set_weights``), clear an integer delay ring of one column per synapse group
+        and integer membranes at 0; the quantised layout (the Xylo and Speck loops start from this state)."""
+        if self._fx is None:
+            self._fx = self._quantise()
+        self._acc = np.zeros((self._lay.ring, self._fx.n_gp), dtype=np.int64)
+        self._v_i = np.zeros(self._lay.n, dtype=np.int64)
+        return self._fx
 
     def _set_recording(self, population: str, variable: str, neurons: np.ndarray) -> None:
         allowed = RECORDABLE_ON_HARDWARE[self._spec.formats.arithmetic]

@@ -121,10 +121,7 @@ class XyloSimulation(FixedPointSimulation):
 
     def _reset_state(self) -> None:
         ReferenceSimulation._reset_state(self)
-        if self._fx is None:
-            self._fx = self._quantise()
-        self._acc = np.zeros((self._lay.ring, self._fx.n_gp), dtype=np.int64)
-        self._v_i = np.zeros(self._lay.n, dtype=np.int64)
+        self._integer_ring()
         self._isyn_i = np.zeros((self._lay.n, 2), dtype=np.int64)
 
     def _run(self, n_steps: int) -> None:

@@ -131,7 +131,7 @@ def test_arithmetic_comes_from_formats_not_the_name(tmp_path):
         nv.compile(net, backend="reference", dt=1.0, seed=0, hardware=str(bare))
     other = _copy(tmp_path, "loihi2", "future", **{'arithmetic = "loihi2"': 'arithmetic = "loihi3"'})
     with pytest.raises(UnsupportedFeatureError, match=r"declares the loihi3 arithmetic, the backend computes in: "
-                                                       r"loihi1, loihi2, spinnaker"):  # fmt: skip
+                                                       r"loihi1, loihi2, speck, spinnaker, xylo"):  # fmt: skip
         nv.compile(net, backend="reference", dt=1.0, seed=0, hardware=str(other))
 
 
