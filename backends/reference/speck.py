@@ -26,7 +26,7 @@ import numpy as np
 
 from neurovpr.errors import UnsupportedFeatureError
 from neurovpr.hardware.hwspec import HwSpec
-from neurovpr.hardware.speck_values import lowest_state, speck_problems, speck_values
+from neurovpr.hardware.speck_values import lowest_state, speck_problems, speck_values, threshold_problems
 from neurovpr.ir.network import Network
 
 from . import kernel_layout as kl
@@ -39,9 +39,9 @@ from .simulation import ReferenceSimulation
 __all__ = ["SpeckSimulation", "quantise_speck", "speck_problem", "sinabs_scale"]
 
 
-def speck_problem(network: Network, spec: HwSpec, dt: float) -> Exception | None:
-    """The first reason ``network`` cannot run as Speck's integer layers, as the error to raise."""
-    problems = speck_problems(network, spec, dt)
+def speck_problem(network: Network, spec: HwSpec, dt: float, problems: list[str] | None = None) -> Exception | None:
+    """The first reason ``network`` cannot run as Speck's integer layers (of ``problems`` when given), as the error."""
+    problems = speck_problems(network, spec, dt) if problems is None else problems
     if not problems:
         return None
     more = f" (and {len(problems) - 1} more)" if len(problems) > 1 else ""
@@ -71,7 +71,11 @@ def quantise_speck(network: Network, spec: HwSpec, lay: Any, *, dt: float, seed:
     s_val = np.zeros(lay.s_w.size, dtype=np.int64)
     v_unit = np.ones(lay.n)
     blocks, by_proj = [], {}
-    for layer in speck_values(network, dt=dt, seed=seed, weights=weights):
+    layers = speck_values(network, dt=dt, seed=seed, weights=weights)
+    problem = speck_problem(network, spec, dt, threshold_problems(layers, spec))
+    if problem is not None:
+        raise problem
+    for layer in layers:
         vmin, thr = np.float32(lowest_state(layer, spec)), np.float32(layer.threshold)
         bias = np.zeros(layer.kernel.shape[0]) if layer.bias is None else layer.bias
         scale = min(
@@ -99,12 +103,6 @@ def quantise_speck(network: Network, spec: HwSpec, lay: Any, *, dt: float, seed:
                 "v_rest": layer.v_rest,
             }
         )
-        if int(params[lo, ks.SP_VTH]) < 1:
-            raise UnsupportedFeatureError(
-                f"Population {layer.population!r}: its threshold rounds to "
-                f"{int(params[lo, ks.SP_VTH])} at the layer's scale {float(scale):g}, "
-                "below Speck's least threshold 1."
-            )
     return FixedLayout(
         variant="speck",
         params=params,

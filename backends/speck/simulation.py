@@ -20,7 +20,7 @@ import numpy as np
 from neurovpr.backendkit.hosted import HostedSimulation
 from neurovpr.errors import UnsupportedFeatureError
 from neurovpr.hardware.check import HardwareTarget
-from neurovpr.hardware.speck_values import speck_problems, speck_values
+from neurovpr.hardware.speck_values import speck_problems, speck_values, threshold_problems
 from neurovpr.ir.network import Network
 
 from .compat import import_dynapcnn
@@ -44,6 +44,7 @@ class SinabsSimulation(HostedSimulation):
     def _build(self) -> None:
         started = time.perf_counter_ns()
         values = speck_values(self._network, dt=self._dt, seed=self._seed, weights=self._values)
+        self._refuse(threshold_problems(values, self._spec))
         self._layers = [(v, dynapcnn_layer(v, self._spec, self._sinabs)) for v in values]
         self._build_ns += time.perf_counter_ns() - started
 

@@ -38,7 +38,15 @@ from neurovpr.ir.network import Network
 
 from .hwspec import HwSpec
 
-__all__ = ["SpeckLayerValues", "speck_problems", "speck_values", "lowest_state", "layer_order", "discretisation_scale"]
+__all__ = [
+    "SpeckLayerValues",
+    "speck_problems",
+    "speck_values",
+    "lowest_state",
+    "layer_order",
+    "discretisation_scale",
+    "threshold_problems",
+]
 
 
 @dataclass(frozen=True, slots=True, kw_only=True, eq=False)
@@ -276,3 +284,19 @@ def lowest_state(layer: SpeckLayerValues, spec: HwSpec) -> float:
         discretisation_scale(np.array([0.0, layer.threshold]), fmt.voltage_bits),
     )
     return float(-(2.0 ** (fmt.voltage_bits - 1)) * (1.0 - 2.0**-20) / scale)
+
+
+def threshold_problems(layers: list[SpeckLayerValues], spec: HwSpec) -> list[str]:
+    """Layers whose threshold rounds below 1 at the layer's scale (weights so large that it vanishes): one sentence each."""
+    out = []
+    for layer in layers:
+        fmt = spec.formats
+        bias = np.zeros(1) if layer.bias is None else layer.bias
+        scale = min(discretisation_scale(layer.kernel, fmt.weight_bits), discretisation_scale(bias, fmt.weight_bits))
+        if layer.threshold * scale < 0.5:
+            out.append(
+                f"population {layer.population!r}: its threshold {layer.threshold:g} mV rounds to 0 at the scale "
+                f"{scale:g} per mV that fits its largest charge per spike ({np.abs(layer.kernel).max():g} mV) and "
+                f"bias into {fmt.weight_bits}-bit integers"
+            )
+    return out

@@ -103,6 +103,13 @@ def test_speck_backend_refuses_what_speck_cannot_hold_naming_the_limit():
             nv.compile(_convnet(0, tau_m=20.0), backend=backend, hardware=hw, dt=1.0, seed=0)
     with pytest.raises(nv.UnsupportedFeatureError, match=r"steps of 1 ms"):
         nv.compile(_convnet(0), backend="speck", dt=0.5, seed=0)
+    huge = nv.Network("huge_weight")
+    huge.add_population("input", 4, nv.SpikeSourceArray(spike_times=[[1.0]] * 4))
+    huge.add_population("out", 2, nv.IF_curr_exp(**IAF, v_thresh=1.0))
+    huge.connect("input", "out", nv.AllToAllConnector(), nv.StaticSynapse(weight=np.array([[300.0, 1.0]] * 4)))
+    for backend, hw in (("speck", None), ("reference", "speck")):
+        with pytest.raises(nv.UnsupportedFeatureError, match=r"'out': its threshold 1 mV rounds to 0 .*300 mV"):
+            nv.compile(huge, backend=backend, hardware=hw, dt=1.0, seed=0)
 
 
 def test_speck_backend_is_listed_with_its_capabilities(capsys):
