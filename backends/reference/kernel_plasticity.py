@@ -39,7 +39,7 @@ def table_decay(x, steps, table, r, dt, tau):
     return x * np.exp(-steps * dt / tau)
 
 
-@njit(_nrt=False)
+@njit(inline="always", _nrt=False)
 def arrive(g, nxt, j, dt, plastic_on, syn, stdp, isyn):
     """Spikes arriving at segment ``g`` at step ``j``: depress, deliver, advance the pre trace.
 
@@ -67,8 +67,10 @@ def arrive(g, nxt, j, dt, plastic_on, syn, stdp, isyn):
                 prefetch(p_w, ahead + q)
                 prefetch(p_post, ahead + q)
             isyn[target, p_post[q]] += p_w[q]
-    elif rk == RULE_ADDITIVE:
-        step = dep * w_max
+    else:
+        # additive: w - dep w_max x_post; Diehl & Cook: w - dep x_post; multiplicative: w - dep (w - w_min) x_post
+        mult = rk == RULE_MULTIPLICATIVE
+        step = dep * w_max if rk == RULE_ADDITIVE else dep
         for q in range(lo, hi):  # without branches: a zero trace keeps the weight
             if (q & np.uint64(7)) == 0:
                 prefetch(p_w, ahead + q)
@@ -76,24 +78,12 @@ def arrive(g, nxt, j, dt, plastic_on, syn, stdp, isyn):
             post = p_post[q]
             x_post = xpost1[np.uint64(post + shift)]
             w = p_w[q]
-            moved = min(max(w - step * x_post, w_min), w_max)
+            rate = dep * (w - w_min) if mult else step
+            moved = min(max(w - rate * x_post, w_min), w_max)
             w = moved if x_post != 0.0 else w
             p_w[q] = w
             updates += x_post != 0.0
             isyn[target, post] += w
-    else:
-        for q in range(lo, hi):
-            post = p_post[q]
-            x_post = xpost1[np.uint64(post + shift)]
-            if x_post != 0.0:
-                w = p_w[q]
-                if rk == RULE_MULTIPLICATIVE:
-                    w -= dep * (w - w_min) * x_post
-                else:
-                    w -= dep * x_post
-                p_w[q] = min(max(w, w_min), w_max)
-                updates += 1
-            isyn[target, post] += p_w[q]
     if rk == RULE_DIEHL_COOK:
         seg_xpre[g] = 1.0
     else:
@@ -153,6 +143,8 @@ def potentiate(i, t, dt, syn, stdp):
             p_w[k] = moved if x != 0.0 else w
             updates += x != 0.0
         return updates
+    if r0 >= 0 and rules[r0, R_KIND] == RULE_DIEHL_COOK:
+        return potentiate_diehl_cook(i, base, n, r0, p_w, post_syn, rules, x_pre, xpost2, tr_shift)
     for q in range(n):
         x = x_pre[q]
         k = post_syn[lo + q]
@@ -178,6 +170,32 @@ def potentiate(i, t, dt, syn, stdp):
             w += rules[r, R_POT] * factor
         p_w[k] = min(max(w, w_min), w_max)
         updates += 1
+    return updates
+
+
+@njit(inline="always", _nrt=False)
+def potentiate_diehl_cook(i, base, n, r, p_w, post_syn, rules, x_pre, xpost2, tr_shift):
+    """:func:`potentiate`'s update loop when every synapse onto neuron ``i`` follows Diehl & Cook rule ``r``.
+
+    The same arithmetic as the general loop, without branches per synapse: a zero factor
+    keeps the weight, ``(w_max - w) ** mu`` is taken as exactly 1 for ``mu = 0`` and as
+    ``w_max - w`` for ``mu = 1`` (what ``pow`` returns for those exponents), and a rule
+    without the second postsynaptic trace multiplies by nothing.
+    """
+    w_min, w_max, pot, x_tar, mu = rules[r, R_W_MIN], rules[r, R_W_MAX], rules[r, R_POT], rules[r, R_X_TAR], rules[r, R_MU]
+    post2 = rules[r, R_TAU_POST2] > 0.0
+    x_post2 = xpost2[i + tr_shift[r]]
+    updates = 0
+    for q in range(np.uint64(n)):
+        k = np.uint64(post_syn[base + q])
+        w = p_w[k]
+        room = w_max - w
+        scale = 1.0 if mu == 0.0 else (room if mu == 1.0 else room**mu)
+        factor = (x_pre[q] - x_tar) * scale
+        factor = factor * x_post2 if post2 else factor
+        moved = min(max(w + pot * factor, w_min), w_max)
+        p_w[k] = moved if factor != 0.0 else w
+        updates += factor != 0.0
     return updates
 
 
