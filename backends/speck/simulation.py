@@ -7,7 +7,8 @@ integer IAF neurons. ``run`` feeds the layers in the order spikes take, each the
 window at once as Sinabs's ``DynapcnnNetwork`` does: a source spike at ``j dt`` is input
 row ``j``; a layer's spikes of row ``j`` (stamped ``(j + 1) dt``, as every backend stamps a
 neuron's spikes) are the next layer's input row ``j`` (Speck has no synaptic delays). The
-layers' membranes carry over between ``run`` calls; ``reset`` zeroes them.
+layers' membranes carry over between ``run`` calls (and between the chunks a long run is fed
+in); ``reset`` zeroes them.
 """
 
 from __future__ import annotations
@@ -27,6 +28,10 @@ from .compat import import_dynapcnn
 from .translation import dynapcnn_layer
 
 __all__ = ["SinabsSimulation"]
+
+#: Steps x neurons of the spike-count rasters one chunk of a run holds (a long run is fed to Sinabs in
+#: chunks of this size; the layers' membranes carry over, so the spikes are those of one window).
+_CHUNK_VALUES = 1 << 22
 
 
 class SinabsSimulation(HostedSimulation):
@@ -59,9 +64,17 @@ class SinabsSimulation(HostedSimulation):
             self._record.add(population, counts >= k, first, source=source)
 
     def _run(self, n_steps: int) -> None:
+        started = time.perf_counter_ns()
+        sizes = sum(p.size for p in self._network.populations.values())
+        chunk = max(1, _CHUNK_VALUES // max(1, sizes))
+        for first in range(0, n_steps, chunk):
+            self._run_chunk(min(chunk, n_steps - first))
+        self._run_ns += time.perf_counter_ns() - started
+
+    def _run_chunk(self, n_steps: int) -> None:
+        """Run ``n_steps`` steps: every layer over the whole chunk, in the order spikes take."""
         import torch
 
-        started = time.perf_counter_ns()
         first = self._steps
         maps: dict[str, np.ndarray] = {}
         for name, source in self._sources.items():
@@ -78,7 +91,6 @@ class SinabsSimulation(HostedSimulation):
                 maps[values.population] = out
         self._record.add_steps(n_steps)
         self._steps += n_steps
-        self._run_ns += time.perf_counter_ns() - started
 
     def _reset(self) -> None:
         for _, layer in self._layers:

@@ -79,6 +79,21 @@ def test_speck_backend_equals_reference_speck_arithmetic(seed):
         assert runs["speck"][2][key] == runs["reference"][2][key], key
 
 
+def test_speck_backend_feeds_a_long_run_in_chunks_with_the_same_spikes(monkeypatch: pytest.MonkeyPatch):
+    from neurovpr.backends.speck import simulation
+
+    net = _convnet(4, layers=2)
+    whole = nv.compile(net, backend="speck", dt=1.0, seed=0)
+    whole.run(60.0)
+    monkeypatch.setattr(simulation, "_CHUNK_VALUES", 7 * sum(p.size for p in net.populations.values()))
+    chunked = nv.compile(net, backend="speck", dt=1.0, seed=0)
+    chunked.run(60.0)  # 9 chunks of 7 steps (the last shorter)
+    for pop in net.populations:
+        for a, b in zip(whole.spike_trains(pop), chunked.spike_trains(pop), strict=True):
+            np.testing.assert_array_equal(a, b)
+    assert whole.spike_counts("dense").sum() > 0
+
+
 def test_speck_backend_runs_poisson_input_and_counts_activity():
     net = _convnet(0)
     pois = nv.Network("speck_poisson")
