@@ -94,6 +94,20 @@ def test_speck_backend_feeds_a_long_run_in_chunks_with_the_same_spikes(monkeypat
     assert whole.spike_counts("dense").sum() > 0
 
 
+def test_reference_speck_arithmetic_records_the_integer_membrane_in_mv():
+    net = _convnet(1)
+    sim = nv.compile(net, backend="reference", hardware="speck", dt=1.0, seed=0)
+    sim.record("dense", "v")
+    sim.run(60.0)
+    block = next(b for b in sim.quantised.blocks if b["population"] == "dense")
+    times, v = sim.trace("dense", "v")
+    assert times.size == 60 and v.shape == (60, 10)
+    units = v * block["scale"]  # v_rest is 0: the membrane in chip units
+    np.testing.assert_allclose(units, np.round(units), atol=1e-6 * block["threshold"])
+    assert np.all(units < block["threshold"]) and np.all(units >= block["min_v_mem"])
+    assert np.ptp(units) > 0
+
+
 def test_speck_backend_runs_poisson_input_and_counts_activity():
     net = _convnet(0)
     pois = nv.Network("speck_poisson")
