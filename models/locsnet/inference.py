@@ -174,6 +174,13 @@ class QueryResult:
     cpu_seconds: float = 0.0
 
 
+def presentation_inputs(spiking: SpikingParameters, image: np.ndarray) -> dict[str, Any]:
+    """Run inputs showing one image (H, W) in [0, 1]: Poisson rates or regular spike trains, as ``spiking`` codes them."""
+    if spiking.input_coding == "poisson":
+        return {INPUT: image.ravel() * spiking.input_rate}
+    return {INPUT: regular_spike_trains(image, spiking.input_rate, spiking.presentation, spiking.dt)}
+
+
 class SpikingClassifier:
     """A compiled spiking LoCS-Net that answers queries one by one.
 
@@ -236,10 +243,7 @@ class SpikingClassifier:
         return np.concatenate([self.sim.spike_counts(p) for p in self.populations[layer]])
 
     def _inputs(self, image: np.ndarray) -> dict[str, Any]:
-        sp = self.spiking
-        if sp.input_coding == "poisson":
-            return {INPUT: image.ravel() * sp.input_rate}
-        return {INPUT: regular_spike_trains(image, sp.input_rate, sp.presentation, sp.dt)}
+        return presentation_inputs(self.spiking, image)
 
     def query(self, image: np.ndarray) -> np.ndarray:
         """Spike counts of the place neurons for one image (H, W) in [0, 1]."""

@@ -19,7 +19,7 @@ from typing import Any, Literal
 
 import numpy as np
 
-from neurovpr.apps.modelapi import ModelPlugin
+from neurovpr.apps.modelapi import ModelPlugin, SamplePresentation
 from neurovpr.apps.options import option
 from neurovpr.apps.requests import EvalRequest, TrainRequest, check_fields
 from neurovpr.apps.rundir import RunDir
@@ -343,6 +343,28 @@ class LoCSNetPlugin(ModelPlugin):
             "activity": activity,
             "compile_seconds": clf.compile_seconds,
         }
+
+    # -- sample presentation (neurovpr eval --activity-plots) ---------------------------------
+    def sample_presentation(self, run_dir: Path, data: Path | None) -> SamplePresentation:
+        """The converted spiking network of ``run_dir`` shown the first query image of ``data`` (default: the run's)."""
+        from neurovpr.data import open_traverse
+
+        from .inference import presentation_inputs
+        from .preprocess import preprocess
+        from .runs import load_run
+
+        run = load_run(run_dir)
+        data = Path(data) if data is not None else Path(run.info["data"])
+        traverse = open_traverse(data)
+        if traverse.n_query < 1:
+            raise ValidationError(f"dataset {data} has no query image to show.")
+        pre = run.info.get("preprocess", {})
+        size = tuple(pre.get("size", run.arch.input_size))
+        image = preprocess(traverse.query.subset([0]).images(), size, patch_norm=bool(pre.get("patch_norm", True)))[0]
+        return SamplePresentation(
+            network=run.network, inputs=presentation_inputs(run.spiking, image), duration_ms=run.spiking.presentation,
+            dt=run.spiking.dt, title="LoCS-Net, query image 0",
+        )  # fmt: skip
 
 
 def _training_images(traverse: Any, labels: Any, size: tuple[int, int], patch_norm: bool) -> tuple[np.ndarray, np.ndarray]:

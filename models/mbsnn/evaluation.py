@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from neurovpr.apps.modelapi import SamplePresentation
 from neurovpr.apps.rundir import RunDir
 from neurovpr.data.events import PNSpikes, pn_frames
 from neurovpr.errors import FileFormatError, ValidationError
@@ -81,6 +82,45 @@ def _output_dir(run_dir: Path, data: Path, stretch: float, backend: str) -> Path
     return run_dir / "eval" / f"{tag}_{backend}"
 
 
+def _run_settings(run_dir: Path, info: dict[str, Any]) -> tuple[float, float, int, float, int, bool, str]:
+    """``(start, end, n_pn, dt, seed, trim, backend)`` of a trained run's ``run.json``."""
+    try:
+        start, end = (float(v) for v in info["learn"])
+        return (
+            start, end, int(info["n_pn"]), float(info["parameters"]["dt_ms"]), int(info.get("seed", 0)),
+            bool(info.get("trim_inactive", True)), str(info["backend"]),
+        )  # fmt: skip
+    except (KeyError, TypeError, ValueError) as exc:
+        raise FileFormatError(f"{RunDir(run_dir).info_file} lacks the mbsnn setting {exc}.") from None
+
+
+def _trained_network(run: RunDir, n_pn: int) -> Any:
+    """The trained mushroom body of ``run``, checked against ``run.json``."""
+    network = run.load_network()
+    missing = [name for name in POPULATIONS if name not in network.populations]
+    if missing:
+        raise FileFormatError(f"{run.network_file} is not a mushroom body: it lacks population(s) {', '.join(missing)}.")
+    if network.populations["input"].size != n_pn:
+        raise FileFormatError(f"{run.network_file} has {network.populations['input'].size} inputs, run.json says {n_pn}.")
+    return network
+
+
+def sample_presentation(
+    run_dir: str | os.PathLike[str], info: dict[str, Any], data: str | os.PathLike[str] | None, *, window_ms: float = 500.0
+) -> SamplePresentation:
+    """The trained mushroom body of ``run_dir`` played the first ``window_ms`` of recording ``data`` (default: the run's)."""
+    run_dir = Path(run_dir)
+    _, _, n_pn, dt, _, trim, _ = _run_settings(run_dir, info)
+    network = _trained_network(RunDir(run_dir), n_pn)
+    data = Path(data if data is not None else info["data"])
+    test = load_recording(data, n_pn=n_pn, trim=trim, stretch=1.0, what="test recording")
+    end = min(float(window_ms), test.duration_ms)
+    return SamplePresentation(
+        network=network, inputs={"input": test.window(0.0, end).to_source()}, duration_ms=end, dt=dt,
+        title=f"MBSNN, first {end:g} ms of {data.stem}",
+    )  # fmt: skip
+
+
 def evaluate(
     run_dir: str | os.PathLike[str],
     info: dict[str, Any],
@@ -104,15 +144,7 @@ def evaluate(
         raise ValidationError(f"--windows must be an integer >= 4, got {windows!r}.")
     if not (np.isfinite(stretch) and stretch > 0):
         raise ValidationError(f"--stretch must be a finite number > 0, got {stretch!r}.")
-    try:
-        start, end = (float(v) for v in info["learn"])
-        n_pn = int(info["n_pn"])
-        dt = float(info["parameters"]["dt_ms"])
-        seed = int(info.get("seed", 0))
-        trim = bool(info.get("trim_inactive", True))
-        train_backend = str(info["backend"])
-    except (KeyError, TypeError, ValueError) as exc:
-        raise FileFormatError(f"{RunDir(run_dir).info_file} lacks the mbsnn setting {exc}.") from None
+    start, end, n_pn, dt, seed, trim, train_backend = _run_settings(run_dir, info)
     backend = backend or train_backend
     data = Path(data if data is not None else info["data"])
     test = load_recording(data, n_pn=n_pn, trim=trim, stretch=stretch, what="test recording")
@@ -123,12 +155,7 @@ def evaluate(
             "use more windows."
         )
     run = RunDir(run_dir)
-    network = run.load_network()
-    missing = [name for name in POPULATIONS if name not in network.populations]
-    if missing:
-        raise FileFormatError(f"{run.network_file} is not a mushroom body: it lacks population(s) {', '.join(missing)}.")
-    if network.populations["input"].size != n_pn:
-        raise FileFormatError(f"{run.network_file} has {network.populations['input'].size} inputs, run.json says {n_pn}.")
+    network = _trained_network(run, n_pn)
     learned_segment = load_spikes(run.part(SEGMENT_FILE))
     sim = compile_mbsnn(network, dt=dt, backend=backend, seed=seed)
     t0 = time.perf_counter()

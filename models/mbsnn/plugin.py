@@ -11,9 +11,10 @@ from __future__ import annotations
 
 import sys
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
-from neurovpr.apps.modelapi import ModelPlugin
+from neurovpr.apps.modelapi import ModelPlugin, SamplePresentation
 from neurovpr.apps.options import option
 from neurovpr.apps.requests import EvalRequest, TrainRequest, check_fields
 from neurovpr.errors import ValidationError
@@ -90,6 +91,14 @@ class MBSNNPlugin(ModelPlugin):
             request.run, run_info, data=request.data, backend=request.backend, windows=o.windows, stretch=o.stretch,
             seq_len=request.seq_len if request.seq_len > 1 else 10, progress=request.progress,
         )  # fmt: skip
+
+    def sample_presentation(self, run_dir: Path, data: Path | None) -> SamplePresentation:
+        """The trained mushroom body of ``run_dir`` played the first 500 ms of the recording ``data``."""
+        from neurovpr.apps.rundir import RunDir
+
+        from .evaluation import sample_presentation
+
+        return sample_presentation(run_dir, RunDir(run_dir).read_info(), data)
 
 
 #: The object the ``neurovpr.models`` entry point ``mbsnn`` names.

@@ -28,7 +28,7 @@ from typing import Any, Literal
 import numpy as np
 
 import neurovpr as nv
-from neurovpr.apps.modelapi import ModelPlugin
+from neurovpr.apps.modelapi import ModelPlugin, SamplePresentation
 from neurovpr.apps.options import option
 from neurovpr.apps.requests import EvalRequest, TrainRequest, check_fields
 from neurovpr.apps.rundir import RunDir
@@ -383,6 +383,33 @@ class ModularSNNPlugin(ModelPlugin):
             "seconds_per_query": float(sum(float(results[i]["seconds"]) for i in range(len(modules))) / n_q),
             "activity": activity,
         }
+
+    # ------------------------------------------------------------------ sample presentation
+    def sample_presentation(self, run_dir: Path, data: Path | None) -> SamplePresentation:
+        """The first reported module of ``run_dir`` (learned weights and thresholds) shown the first query image."""
+        from .network import INPUT
+
+        run_info = RunDir(run_dir).read_info()
+        if run_info.get("format") != RUN_FORMAT:
+            raise nv.ValidationError(
+                f"{RunDir(run_dir).info_file} is not a complete Modular SNN run (format {run_info.get('format')!r})."
+            )
+        modules = [mod for mod in run_info.get("modules") or [] if not mod.get("calibration")]
+        if not modules:
+            raise nv.ValidationError(f"{RunDir(run_dir).info_file} lists no reported module; was the run complete?")
+        settings = TrainingSettings.from_dict(run_info["settings"])
+        data = data or run_info.get("data")
+        if not data:
+            raise nv.ValidationError(f"{RunDir(run_dir).info_file} names no dataset; pass --data.")
+        traverse = load_traverse(data, run_info.get("places"))
+        if traverse.n_query < 1:
+            raise nv.ValidationError(f"dataset {data} has no query image to show.")
+        image = np.asarray(traverse.query.subset([0]).preprocessed(), dtype=np.uint8).reshape(-1)
+        name = modules[0]["name"]
+        return SamplePresentation(
+            network=_module_network(Path(run_dir), name), inputs={INPUT: settings.coding.rates(image)},
+            duration_ms=settings.coding.presentation_ms, dt=settings.dt, title=f"Modular SNN module {name}, query image 0",
+        )  # fmt: skip
 
 
 def _run_data(run_dir: Path, run_info: dict[str, Any], data: Any, progress: bool) -> tuple[Any, Any, np.ndarray, np.ndarray]:

@@ -20,9 +20,19 @@ from neurovpr import entrypoints
 from neurovpr.apps.options import add_option_arguments
 from neurovpr.apps.requests import EvalRequest, TrainRequest
 from neurovpr.apps.rundir import RunDir
-from neurovpr.errors import BackendUnavailableError, ValidationError
+from neurovpr.errors import BackendUnavailableError, UnsupportedFeatureError, ValidationError
+from neurovpr.ir.network import Network
 
-__all__ = ["ModelPlugin", "TrainRequest", "EvalRequest", "MODEL_ENTRY_POINT_GROUP", "model_names", "get_model", "read_run_info"]
+__all__ = [
+    "ModelPlugin",
+    "SamplePresentation",
+    "TrainRequest",
+    "EvalRequest",
+    "MODEL_ENTRY_POINT_GROUP",
+    "model_names",
+    "get_model",
+    "read_run_info",
+]
 
 MODEL_ENTRY_POINT_GROUP = "neurovpr.models"
 
@@ -59,6 +69,31 @@ def _given(request: Any, fields: dict[str, Any], build: Any, kind: type) -> Any:
 def _check_options(options: Any, kind: type, model: str) -> None:
     if not isinstance(options, kind):
         raise ValidationError(f"model {model!r} takes options of type {kind.__name__}, got {type(options).__name__}.")
+
+
+@dataclasses.dataclass(frozen=True, slots=True, kw_only=True)
+class SamplePresentation:
+    """One representative presentation of a trained model: what ``eval --activity-plots`` simulates and draws.
+
+    Attributes
+    ----------
+    network
+        The trained network, as the model evaluates it (plasticity is switched off).
+    inputs
+        The run inputs of the presentation (``Simulation.run(..., inputs=...)``).
+    duration_ms
+        How long it is shown.
+    dt
+        The time step the model runs at.
+    title
+        What it is (``"module m3, query image 0"``), for the plots.
+    """
+
+    network: Network
+    inputs: dict[str, Any]
+    duration_ms: float
+    dt: float
+    title: str
 
 
 class ModelPlugin:
@@ -142,6 +177,14 @@ class ModelPlugin:
         run on the backend raises :class:`~neurovpr.errors.UnsupportedFeatureError` naming why.
         """
         raise NotImplementedError(f"Model {self.name!r} does not implement inference for compare.")
+
+    def sample_presentation(self, run_dir: Path, data: Path | None) -> SamplePresentation:
+        """The first query presentation of the trained run in ``run_dir`` on ``data`` (default: the run's data).
+
+        Used by ``neurovpr eval --activity-plots DIR`` (:func:`neurovpr.apps.activity.plot_sample_activity`)
+        to draw a spike raster and rate histograms of a model as it is evaluated.
+        """
+        raise UnsupportedFeatureError(f"model {self.name!r} names no sample presentation, so it has no activity plots.")
 
 
 def model_names() -> list[str]:

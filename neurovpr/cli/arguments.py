@@ -48,6 +48,7 @@ OUTPUTS: dict[tuple[str, str], tuple[Kind, str | None]] = {
     ("train", "out"): ("folder", None),
     ("demo", "out"): ("folder", None),
     ("eval", "report"): ("folder", None),
+    ("eval", "activity_plots"): ("folder", None),
     ("check", "plot"): ("file", ".png"),
     ("compare", "plot"): ("file", ".png"),
     ("export", "out"): ("file", None),

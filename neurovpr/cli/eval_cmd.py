@@ -1,4 +1,4 @@
-"""``neurovpr eval --run RUN_DIR [--data PATH] [--backend NAME] [--seq-len L] [--json]``."""
+"""``neurovpr eval --run RUN_DIR [--data PATH] [--backend NAME] [--seq-len L] [--json] [--activity-plots DIR]``."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
+from neurovpr.apps.activity import plot_sample_activity
 from neurovpr.apps.modelapi import get_model, read_run_info
 from neurovpr.apps.requests import EvalRequest
 from neurovpr.cli.arguments import ModelHelp, model_options, parse_model_options, show_progress
@@ -19,6 +20,8 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--backend", default=None, help="backend to evaluate on (default: the training backend)")
     p.add_argument("--seq-len", type=int, default=1, help="sequence length for sequence matching (default 1)")
     p.add_argument("--json", action="store_true", help="print exactly one JSON object")
+    p.add_argument("--activity-plots", type=Path, default=None, metavar="DIR",
+                   help="simulate the first query once: its spike raster, rate histograms and summary into DIR")  # fmt: skip
     p.add_argument("--no-progress", action="store_true", help="no progress bars")
 
 
@@ -51,6 +54,10 @@ def run(args: argparse.Namespace) -> int:
     )
     result = model.evaluate(request, info)
     result.setdefault("neurobench", neurobench_block(args.run))
+    if args.activity_plots is not None:
+        backend = result.get("backend") or args.backend or info.get("backend") or "reference"
+        paths = plot_sample_activity(model, args.run, args.data, str(backend), args.activity_plots)
+        result["activity_plots"] = {key: str(path) for key, path in paths.items()}
     if args.json:
         print(json.dumps(result))
     else:
@@ -59,4 +66,6 @@ def run(args: argparse.Namespace) -> int:
             print(f"  {key}: {value}")
         for name, metrics in result.get("baselines", {}).items():
             print(f"  baseline {name}: " + ", ".join(f"{k}={v}" for k, v in metrics.items()))
+        if "activity_plots" in result:
+            print(f"  activity plots: {result['activity_plots']['raster']}, {result['activity_plots']['rates']}")
     return 0

@@ -104,7 +104,9 @@ def plot_rate_histograms(rates_hz: Mapping[str, np.ndarray], path: str | Path, *
     return _save(fig, path)
 
 
-def plot_activity(sim: Any, out_dir: str | Path, *, populations: Sequence[str] | None = None) -> dict[str, Path]:
+def plot_activity(
+    sim: Any, out_dir: str | Path, *, populations: Sequence[str] | None = None, title: str | None = None
+) -> dict[str, Path]:
     """Raster, rate histograms and a JSON summary of ``sim``'s run since its last reset.
 
     Parameters
@@ -115,6 +117,8 @@ def plot_activity(sim: Any, out_dir: str | Path, *, populations: Sequence[str] |
         Folder for ``raster.png``, ``rates.png`` and ``activity_summary.json`` (created if missing).
     populations
         Which populations (default: all, in the network's order).
+    title
+        What was simulated (default: the network's name); the backend and duration are added.
 
     Returns
     -------
@@ -132,13 +136,14 @@ def plot_activity(sim: Any, out_dir: str | Path, *, populations: Sequence[str] |
     trains = {n: sim.spike_trains(n) for n in names}
     rates = {n: sim.spike_counts(n) * 1000.0 / duration for n in names}
     out = Path(out_dir)
-    title = f"{sim.network.name} on {sim.backend}, {duration:g} ms"
+    title = f"{sim.network.name if title is None else title} on {sim.backend}, {duration:g} ms"
     paths = {
         "raster": plot_spike_raster(trains, sizes, duration, out / RASTER_FILE, title=f"Spike raster: {title}"),
         "rates": plot_rate_histograms(rates, out / RATES_FILE, title=f"Firing rates: {title}"),
     }
     summary = {
         "network": sim.network.name,
+        "title": title,
         "backend": sim.backend,
         "duration_ms": duration,
         "populations": {

@@ -315,14 +315,16 @@ class Simulation(ABC):
         """Activity counted since compile: steps, neuron updates, spikes, synaptic events, plastic updates."""
         return dict(self._statistics())
 
-    def plot_activity(self, out_dir: str | os.PathLike[str], populations: Sequence[str] | None = None) -> dict[str, Path]:
+    def plot_activity(
+        self, out_dir: str | os.PathLike[str], populations: Sequence[str] | None = None, *, title: str | None = None
+    ) -> dict[str, Path]:
         """Write a spike raster, per-population rate histograms (PNG) and a JSON summary of the run since the last reset.
 
         See :func:`neurovpr.evaluation.activity_plots.plot_activity`; returns the paths written.
         """
         from neurovpr.evaluation.activity_plots import plot_activity
 
-        return plot_activity(self, out_dir, populations=populations)
+        return plot_activity(self, out_dir, populations=populations, title=title)
 
     def learned_state(self, population: str) -> dict[str, np.ndarray]:
         """Learned per-neuron quantities of a population (``{"theta": ...}`` for adaptive neurons)."""

@@ -274,8 +274,15 @@ def test_train_and_eval_write_a_complete_run_directory(tmp_path, capsys) -> None
 
     assert main(["check", "--run", str(run), "--hw", "kapoho-bay", "--json"]) == 0
     capsys.readouterr()
-    assert main(["eval", "--run", str(run), "--queries", "6", "--json"]) == 0  # with NeuroBench's metrics of the run
-    block = json.loads(capsys.readouterr().out)["neurobench"]
+    plots = tmp_path / "activity"
+    # with NeuroBench's metrics of the run, and the raster and rates of the first query
+    assert main(["eval", "--run", str(run), "--queries", "6", "--json", "--activity-plots", str(plots)]) == 0
+    printed = json.loads(capsys.readouterr().out)
+    block = printed["neurobench"]
+    summary = json.loads((plots / "activity_summary.json").read_text())
+    assert printed["activity_plots"]["raster"] == str(plots / "raster.png") and (plots / "rates.png").is_file()
+    assert summary["title"].startswith("LoCS-Net, query image 0") and summary["duration_ms"] == 20.0
+    assert summary["populations"]["places"]["neurons"] == 10 and summary["populations"]["input"]["spikes"] > 0
     activity = json.loads((run / "activity.json").read_text())
     assert block["synaptic_operations"]["Effective_ACs"] == activity["synaptic_events"] > 0
     assert block["synaptic_operations"]["Dense"] == block["synapses"] * 20 and 0.0 < block["activation_sparsity"] < 1.0

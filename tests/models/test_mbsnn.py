@@ -262,8 +262,15 @@ def test_command_line_train_and_eval(tmp_path, capsys, monkeypatch):
     common = ["--n-kc", "200", "--kc-groups", "1", "--n-pn", str(N_PN), "--keep-still"]
     assert main(["train", "--model", "mbsnn", "--data", str(first), "--out", str(out), "--learn", "0.4:0.6", *common]) == 0
     capsys.readouterr()
-    assert main(["eval", "--run", str(out), "--data", str(second), "--windows", "20", "--json"]) == 0
+    plots = tmp_path / "activity"
+    evaluate = ["eval", "--run", str(out), "--data", str(second), "--windows", "20", "--json"]
+    assert main([*evaluate, "--activity-plots", str(plots)]) == 0
     result = json.loads(capsys.readouterr().out)
+    activity = json.loads((plots / "activity_summary.json").read_text())  # the first 500 ms of the second recording
+    assert result["activity_plots"]["raster"] == str(plots / "raster.png") and (plots / "rates.png").is_file()
+    assert activity["title"] == "MBSNN, first 500 ms of second on reference, 500 ms"
+    assert activity["duration_ms"] == pytest.approx(500.0)
+    assert activity["populations"]["kc2"]["neurons"] == 200 and activity["populations"]["pn"]["spikes"] > 0
     assert result["model"] == "mbsnn" and "AUC_ROC" in result["metrics"]
     assert set(result["baselines"]) == {"SeqSLAM", "PerfectMemory"}
     assert main(["train", "--model", "mbsnn", "--data", str(first), "--out", str(out), "--learn", "0.7:0.2"]) == 2

@@ -298,8 +298,15 @@ def test_train_and_eval_write_run_json_results_and_plots(tmp_path: Path, capsys:
             main(["train", "--model", "modular", "--data", str(data), "--out", str(run_dir), "--seed", "3", "--json", *opts]) == 0
         )
         summary = json.loads(capsys.readouterr().out)
-        assert main(["eval", "--run", str(run_dir), "--seq-len", "2", "--json", "--no-progress"]) == 0
+        plots = tmp_path / "activity"
+        evaluate = ["eval", "--run", str(run_dir), "--seq-len", "2", "--json", "--no-progress"]
+        assert main([*evaluate, "--activity-plots", str(plots)]) == 0
         result = json.loads(capsys.readouterr().out)
+        # the raster and rates of the first reported module shown the first query image, learning off
+        activity = json.loads((plots / "activity_summary.json").read_text())
+        assert result["activity_plots"]["rates"] == str(plots / "rates.png") and (plots / "raster.png").is_file()
+        assert activity["title"].startswith("Modular SNN module ") and activity["duration_ms"] == 350.0
+        assert activity["populations"]["exc"]["neurons"] == 20 and activity["populations"]["pixels"]["spikes"] > 0
     else:  # the entry point is not installed yet: build the requests the way the CLI does
         from neurovpr.cli.train_cmd import train_request
 
