@@ -18,8 +18,7 @@ from collections.abc import Iterable, Sequence
 
 import numpy as np
 
-from neurovpr.data.images import check_image_array
-from neurovpr.data.preprocess import resize_linear, rgb_to_gray
+from neurovpr.data.preprocess import resized_gray
 from neurovpr.errors import ValidationError
 
 __all__ = ["to_gray", "box_patch_normalise", "preprocess", "DEFAULT_PATCH_SIZE"]
@@ -29,16 +28,8 @@ DEFAULT_PATCH_SIZE = 13
 
 
 def to_gray(image: np.ndarray, size: tuple[int, int], *, name: str = "image") -> np.ndarray:
-    """One image (H, W) or (H, W, C) resized to ``size`` and converted to gray, float 0..255."""
-    arr = check_image_array(image, name=name)
-    if arr.ndim == 3:
-        arr = arr[..., 0] if arr.shape[2] in (1, 2) else arr[..., :3]
-    if arr.dtype != np.uint8:
-        arr = arr.astype(np.float64)
-    resized = resize_linear(arr, size[0], size[1])
-    if resized.ndim == 3:
-        resized = rgb_to_gray(resized)
-    return np.asarray(resized, dtype=np.float64)
+    """One image (H, W) or (H, W, C) resized to ``size`` and converted to gray, float 0..255 (no warnings)."""
+    return resized_gray(image, size, name=name, warn=False)
 
 
 def _box_sum(a: np.ndarray, half: int) -> np.ndarray:

@@ -51,6 +51,7 @@ __all__ = [
     "PATCH_SIZE",
     "resize_linear",
     "rgb_to_gray",
+    "resized_gray",
     "patch_normalise",
     "to_uint8_range",
     "preprocess_image",
@@ -170,10 +171,23 @@ def to_uint8_range(normalised: np.ndarray) -> np.ndarray:
     return (255.0 * (1.0 + x) / 2.0).astype(np.uint8)
 
 
-def _to_gray_28(image: np.ndarray, size: tuple[int, int], name: str) -> np.ndarray:
+def resized_gray(image: np.ndarray, size: tuple[int, int], *, name: str = "image", warn: bool = True) -> np.ndarray:
+    """One image (H, W) or (H, W, C) resized to ``size`` (bilinear) and converted to gray, float 0..255.
+
+    Parameters
+    ----------
+    image
+        The image; checked by :func:`neurovpr.data.images.check_image_array`.
+    size
+        Output (height, width).
+    name
+        How errors and warnings name the image.
+    warn
+        Warn when the image is upsampled or carries an alpha channel (which is ignored).
+    """
     arr = check_image_array(image, name=name)
     h, w = arr.shape[:2]
-    if h < size[0] or w < size[1]:
+    if warn and (h < size[0] or w < size[1]):
         warnings.warn(
             f"{name} is {h}x{w} pixels, smaller than the {size[0]}x{size[1]} network input; it is upsampled.",
             UserWarning,
@@ -181,12 +195,9 @@ def _to_gray_28(image: np.ndarray, size: tuple[int, int], name: str) -> np.ndarr
         )
     if arr.ndim == 3:
         channels = arr.shape[2]
-        if channels in (2, 4):
+        if warn and channels in (2, 4):
             warnings.warn(f"{name} has an alpha channel ({channels} channels); the alpha is ignored.", UserWarning, stacklevel=3)
-        if channels in (1, 2):
-            arr = arr[..., 0]
-        else:
-            arr = arr[..., :3]
+        arr = arr[..., 0] if channels in (1, 2) else arr[..., :3]
     if arr.dtype != np.uint8:
         arr = arr.astype(np.float64)
     resized = resize_linear(arr, size[0], size[1])
@@ -211,7 +222,7 @@ def preprocess_image(
     name
         How errors and warnings refer to the image (e.g. its file name).
     """
-    gray = _to_gray_28(image, size, name)
+    gray = resized_gray(image, size, name=name)
     return to_uint8_range(patch_normalise(gray, patch_size))
 
 
@@ -239,7 +250,7 @@ def preprocess_images(
     grays = []
     for i, img in enumerate(seq):
         label = names[i] if names is not None else f"image {i}"
-        grays.append(_to_gray_28(img, size, label))
+        grays.append(resized_gray(img, size, name=label))
     if not grays:
         raise ValidationError("preprocess_images got no images, expected at least one.")
     return to_uint8_range(patch_normalise(np.stack(grays), patch_size))
