@@ -16,8 +16,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from neurovpr.errors import UnsupportedFeatureError, ValidationError
-from neurovpr.hardware.check import HardwareTarget, hardware_target
+from neurovpr.backendkit.chips import chip_target
+from neurovpr.hardware.check import HardwareTarget
 from neurovpr.ir.network import Network
 from neurovpr.runtime.backend import Backend
 from neurovpr.runtime.simulation import Simulation
@@ -41,13 +41,8 @@ class SpeckBackend(Backend):
         from .simulation import SinabsSimulation
 
         # The backend is the chip: the network must fit Speck whether or not hardware= was given.
-        # A refusal is an UnsupportedFeatureError, so that `neurovpr compare` reports it as a refused row.
-        if hardware is None:
-            try:
-                hardware = hardware_target(network, "speck", dt=dt, seed=seed)
-            except ValidationError as exc:
-                raise UnsupportedFeatureError(f"Backend 'speck' cannot run it: {exc}") from exc
-        return SinabsSimulation(network, dt=dt, seed=seed, hardware=hardware)
+        target = chip_target(network, self.name, "speck", hardware, dt=dt, seed=seed)
+        return SinabsSimulation(network, dt=dt, seed=seed, hardware=target)
 
 
 BACKEND = SpeckBackend()

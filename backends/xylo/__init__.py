@@ -12,7 +12,8 @@ from __future__ import annotations
 
 from typing import Any
 
-from neurovpr.hardware.check import HardwareTarget, hardware_target
+from neurovpr.backendkit.chips import chip_target
+from neurovpr.hardware.check import HardwareTarget
 from neurovpr.ir.network import Network
 from neurovpr.runtime.backend import Backend
 from neurovpr.runtime.simulation import Simulation
@@ -38,7 +39,7 @@ class XyloBackend(Backend):
         from .simulation import XyloSimSimulation
 
         # The backend is the chip: the network must fit Xylo whether or not hardware= was given.
-        target = hardware if hardware is not None else hardware_target(network, "xylo", dt=dt, seed=seed)
+        target = chip_target(network, self.name, "xylo", hardware, dt=dt, seed=seed)
         return XyloSimSimulation(network, dt=dt, seed=seed, hardware=target)
 
 

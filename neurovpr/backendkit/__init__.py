@@ -13,6 +13,8 @@ backend:
 - :mod:`.loihi2` -- that compartment and its synapse groups as Loihi 2's integers, with the
   limits of a hwspec's ``[formats]`` (Lava's ``fixed_pt`` models and the ``loihi2`` emulation);
 - :mod:`.readout` -- spike counts, spike trains and activity counts read back from rasters;
+- :mod:`.chips` -- the fit of a network on the chip a backend stands for (``xylo``, ``speck``),
+  a misfit refused as an unsupported feature;
 - :mod:`.hosted` -- a :class:`~neurovpr.runtime.simulation.Simulation` base for backends
   that run neurovpr's expanded connections and read spikes back as rasters;
 - :mod:`.pynn_names` -- the PyNN and sPyNNaker names of the IR's types.

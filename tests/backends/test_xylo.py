@@ -57,7 +57,8 @@ def test_xylo_backend_equals_reference_xylo_arithmetic(seed):
 
 
 def test_xylo_backend_refuses_a_network_that_does_not_fit_naming_the_limit():
-    with pytest.raises(nv.ValidationError, match=r"does not fit xylo .*17 input channels"):
+    # an unsupported feature, so that `neurovpr compare` reports a refused row
+    with pytest.raises(nv.UnsupportedFeatureError, match=r"Backend 'xylo' cannot run it: .*does not fit xylo .*17 input "):
         nv.compile(xylo_chain(17, [10], 2), backend="xylo", dt=1.0, seed=0)
 
 
