@@ -39,7 +39,7 @@ from .architectures import Architecture
 from .cores import CoreSlice, Partition, Violation
 from .hwspec import HwSpec, spec_field
 
-__all__ = ["SpeckRules", "SpeckLayer", "speck_layers", "assign_cores", "partition_speck", "SPECK"]
+__all__ = ["SpeckRules", "SpeckLayer", "speck_layers", "assign_cores", "partition_speck", "population_shapes", "SPECK"]
 
 _MEMORIES = ("kernel_memory", "neuron_memory", "bias_memory")
 
@@ -74,7 +74,8 @@ def _log2_ceil(n: int) -> int:
     return math.ceil(math.log2(n)) if n > 1 else 0
 
 
-def _shapes(network: Network) -> dict[str, tuple[int, int, int]]:
+def population_shapes(network: Network) -> dict[str, tuple[int, int, int]]:
+    """``(c, h, w)`` of every population: from the convolutions it feeds or is fed by, else ``(n, 1, 1)``."""
     shapes: dict[str, tuple[int, int, int]] = {}
     for proj in network.projections.values():
         if isinstance(proj.connector, ConvolutionConnector):
@@ -87,7 +88,7 @@ def _shapes(network: Network) -> dict[str, tuple[int, int, int]]:
 
 def speck_layers(network: Network) -> tuple[list[SpeckLayer], list[Violation]]:
     """The layers of ``network`` with their memory (``DynapcnnLayer.memory_summary``), and what cannot be a layer."""
-    shapes = _shapes(network)
+    shapes = population_shapes(network)
     incoming: dict[str, list] = {}
     for proj in network.projections.values():
         incoming.setdefault(proj.post, []).append(proj)

@@ -37,6 +37,7 @@ from neurovpr.ir.connectors import AllToAllConnector, ConvolutionConnector
 from neurovpr.ir.network import Network
 
 from .hwspec import HwSpec
+from .speck import population_shapes
 
 __all__ = [
     "SpeckLayerValues",
@@ -102,17 +103,6 @@ def _same(value: object, size: int) -> float | None:
     return float(arr[0]) if size and np.all(arr == arr[0]) else None
 
 
-def _shape(network: Network, name: str) -> tuple[int, int, int]:
-    for proj in network.projections.values():
-        conn = proj.connector
-        if isinstance(conn, ConvolutionConnector):
-            if proj.pre == name:
-                return conn.input_shape
-            if proj.post == name:
-                return conn.output_shape
-    return (network.populations[name].size, 1, 1)
-
-
 def layer_order(network: Network) -> list[str] | None:
     """Neuron populations fed by projections, in the order spikes take (``None`` when the projections loop)."""
     fed = {p.post: p.pre for p in network.projections.values()}
@@ -132,6 +122,7 @@ def layer_order(network: Network) -> list[str] | None:
 def speck_problems(network: Network, spec: HwSpec, dt: float) -> list[str]:
     """Why ``network`` cannot run as Speck's IAF layers at step ``dt``: one sentence each (empty when it can)."""
     out: list[str] = []
+    shapes = population_shapes(network)
     step = spec.timing.time_step_ms
     if not math.isclose(dt, step, rel_tol=1e-9):
         out.append(f"network {network.name!r} at dt={dt:g} ms: {spec.name} runs in steps of {step:g} ms ([timing].time_step_ms)")
@@ -176,7 +167,7 @@ def speck_problems(network: Network, spec: HwSpec, dt: float) -> list[str]:
             )
         if pop.v_init is not None and not np.array_equal(per_neuron(pop.v_init, pop.size), per_neuron(cell.v_rest, pop.size)):
             out.append(f"population {name!r}: v_init differs from v_rest, where {spec.name}'s neurons start at 0")
-        channels = _shape(network, name)[0]
+        channels = shapes[name][0]
         bias = per_neuron(cell.i_offset, pop.size).reshape(channels, -1)
         if np.any(bias != bias[:, :1]):
             out.append(
@@ -219,6 +210,7 @@ def speck_values(
     order = layer_order(network)
     assert order is not None, "speck_values needs a network free of speck_problems"
     feeding = {p.post: p for p in network.projections.values()}
+    shapes = population_shapes(network)
     layers = []
     for name in order:
         proj, pop = feeding[name], network.populations[name]
@@ -232,7 +224,7 @@ def speck_values(
         inhibitory = proj.receptor_type == "inhibitory"
         tau = float(per_neuron(cell.tau_syn_I if inhibitory else cell.tau_syn_E, pop.size)[0])
         gain = (-1.0 if inhibitory else 1.0) * tau / float(per_neuron(cell.cm, pop.size)[0])
-        shape = _shape(network, proj.pre)
+        shape = shapes[proj.pre]
         conn = proj.connector
         kernel = _kernel(conn, conns, shape, pop.size) * gain
         channels = kernel.shape[0]
