@@ -18,7 +18,7 @@ CHIP_UNITS = (
 
 _REASONS = {
     "poisson": "the case runs at dt 0.1 ms; Speck's layers run at its hwspec's 1 ms step ([timing].time_step_ms)",
-    "determinism": "the case's network has recurrent and fixed-probability projections, which no Speck layer holds",
+    "determinism": "the case feeds leaky neurons through a FixedProbabilityConnector, which no Speck layer holds",
 }
 
 CAPABILITIES = Capabilities(
