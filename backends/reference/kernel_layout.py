@@ -88,8 +88,9 @@ NEVER = np.int64(2**62)
 #: Neurons: groups of identical parameters (``G_*`` columns), the parameter table (``C_*``
 #: columns), and the state: membrane, synaptic state ``isyn`` (``ie``, ``ii`` are its rows),
 #: adaptive threshold, Ca2+ current, refractory counters, spike flags (one byte per neuron,
-#: all 0 between steps; ``flag_words`` is the same memory as 64-bit words) and spike counts.
-Neurons = namedtuple("Neurons", "groups params v isyn ie ii theta ica refr flag flag_words counts")
+#: all 0 between steps; ``flag_words`` is the same memory as 64-bit words) and spike counts;
+#: scratch for the conductance-based updates (neuron indices ``todo``, two float rows).
+Neurons = namedtuple("Neurons", "groups params v isyn ie ii theta ica refr flag flag_words counts todo scratch")
 #: The spike record: which neurons are recorded, the spike steps and neurons, the count.
 SpikeRecord = namedtuple("SpikeRecord", "mask t i n")
 #: Static delivery (:func:`.delivery.static_delivery`): segments per neuron, their synapses and neuron blocks.

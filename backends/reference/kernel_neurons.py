@@ -93,16 +93,25 @@ def update_curr(lo, hi, flags, neurons):
 
 @njit(inline="always", _nrt=False)
 def update_cond(lo, hi, flags, dt, plastic_on, neurons):
-    """Advance the conductance-based neurons ``lo:hi`` with the parameters of neuron ``lo``; return how many spiked."""
+    """Advance the conductance-based neurons ``lo:hi`` with the parameters of neuron ``lo``; return how many spiked.
+
+    Three passes over the group, each neuron's arithmetic the same as in one pass: the
+    refractory counters and the membranes without conductance (the leak alone), noting
+    for the others the equilibrium and exponent of their step (``neurons.todo`` and
+    ``neurons.scratch``); then those membranes, whose ``exp`` calls follow one another
+    with nothing else to keep in registers; then the synaptic decays, thresholds and spikes
+    without branches.
+    """
     params, v, ie, ii = neurons.params, neurons.v, neurons.ie, neurons.ii
-    theta, refr, flag = neurons.theta, neurons.refr, neurons.flag
+    theta, refr, flag, todo = neurons.theta, neurons.refr, neurons.flag, neurons.todo
+    v_eq, rate = neurons.scratch[0], neurons.scratch[1]
     rest, p22, i_off, p20 = params[lo, C_V_REST], params[lo, C_P22], params[lo, C_I_OFFSET], params[lo, C_P20]
     fe, fi, gl, cm = params[lo, C_FE], params[lo, C_FI], params[lo, C_GL], params[lo, C_CM]
     e_rev_e, e_rev_i, v_th = params[lo, C_E_REV_E], params[lo, C_E_REV_I], params[lo, C_V_THRESH]
     p11e, p11i, theta_decay = params[lo, C_P11E], params[lo, C_P11I], params[lo, C_THETA_DECAY]
     lock = np.int64(params[lo, C_LOCK])  # the last `lock` steps of the count: free membrane, no spike yet
     adapt = plastic_on and (flags & F_ADAPTIVE) != 0
-    n_spikes = 0
+    m = 0
     for i in range(lo, hi):
         if refr[i] > lock:
             refr[i] -= 1
@@ -115,13 +124,22 @@ def update_cond(lo, hi, flags, dt, plastic_on, neurons):
                 ge = ie[i] * fe
                 gi = ii[i] * fi
                 gt = gl + ge + gi
-                v_inf = (gl * rest + ge * e_rev_e + gi * e_rev_i + i_off) / gt
-                v[i] = v_inf + (v[i] - v_inf) * np.exp(-dt * gt / cm)
-        ie[i] = flush(ie[i] * p11e)
-        ii[i] = flush(ii[i] * p11i)
-        if adapt:
-            theta[i] *= theta_decay
-        spike = v[i] >= v_th + theta[i] and refr[i] == 0
-        flag[i] = spike
+                todo[m] = i
+                v_eq[m] = (gl * rest + ge * e_rev_e + gi * e_rev_i + i_off) / gt
+                rate[m] = -dt * gt / cm
+                m += 1
+    for k in range(m):
+        i = todo[k]
+        v_inf = v_eq[k]
+        v[i] = v_inf + (v[i] - v_inf) * np.exp(rate[k])
+    n_spikes = 0
+    ulo, uhi = np.uint64(lo), np.uint64(hi)  # unsigned indices: no negative-index wrap, so the loop vectorises
+    for q in range(ulo, uhi):
+        ie[q] = flush(ie[q] * p11e)
+        ii[q] = flush(ii[q] * p11i)
+        th = theta[q] * theta_decay if adapt else theta[q]
+        theta[q] = th
+        spike = (v[q] >= v_th + th) & (refr[q] == 0)
+        flag[q] = spike
         n_spikes += spike
     return n_spikes

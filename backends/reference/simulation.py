@@ -114,6 +114,7 @@ class ReferenceSimulation(Simulation):
             self._ica = self._ica_init.copy()
             self._refr = np.zeros(n, dtype=np.int64)
             self._counts = np.zeros(n, dtype=np.int64)
+            self._todo, self._scratch = np.zeros(n, dtype=np.int64), np.zeros((2, n))  # kernel scratch
             # static ring buffer: rows (receptor, slot) of whole 64-bit words of block marks
             n_blocks = -(-lay.n_blocks // 8) * 8
             self._buf = np.zeros(2 * lay.ring * (n_blocks << BLOCK_SHIFT))
@@ -235,7 +236,7 @@ class ReferenceSimulation(Simulation):
         return (
             kl.Neurons(
                 lay.groups, lay.params, self._v, self._isyn, self._ie, self._ii, self._theta, self._ica, self._refr,
-                self._flag, self._flag_words, self._counts,
+                self._flag, self._flag_words, self._counts, self._todo, self._scratch,
             ),
             self._spike_record(),
             kl.StaticTables(lay.d_seg_ptr, lay.d_seg_start, lay.d_seg, lay.d_post, lay.d_w, lay.d_blk_ptr, lay.d_blk),
