@@ -18,6 +18,7 @@ from .kernel_layout import (
     CV_SH,
     CV_SW,
     CV_WOFF,
+    EV_SHIFT,
     ST_SPIKES,
     ST_SYN_EVENTS,
 )
@@ -89,7 +90,9 @@ def emit(i, stamp, at, width, counts, stats, record, static, arrivals, conv, syn
     :func:`convolve`. ``at`` is ``stamp``'s ring slot (``stamp % ring``), so that the
     slot of an arrival needs no division. ``record``, ``static``, ``arrivals``, ``conv`` and
     ``syn`` are a ``SpikeRecord``, ``StaticTables``, ``Arrivals``,
-    ``ConvTables`` and ``PlasticTables`` (:mod:`.kernel_layout`).
+    ``ConvTables`` and ``PlasticTables`` (:mod:`.kernel_layout`). Each plastic segment
+    is queued with its projection and synapse range (read here in order, not at the
+    arrival from scattered segments).
     """
     record_spike(i, stamp, counts, stats, record)
     d_seg_ptr, d_seg_start, d_seg, d_post, d_w, d_blk_ptr, d_blk = static
@@ -116,10 +119,14 @@ def emit(i, stamp, at, width, counts, stats, record, static, arrivals, conv, syn
     first = counts.size + 1  # cv_index: pointers, then entries of three values
     for e in range(cv_index[i], cv_index[i + 1]):
         stats[ST_SYN_EVENTS] += convolve(first + 3 * e, at, width, conv, arrivals)
-    for g in range(syn.row_seg_ptr[i], syn.row_seg_ptr[i + 1]):
-        due = later_slot(at, syn.seg_delay[g], ring)
-        ev[due, ev_n[due]] = g
-        ev_n[due] += 1
+    seg_start, seg_proj, seg_delay = syn.seg_start, syn.seg_proj, syn.seg_delay
+    for g in range(syn.row_seg_ptr[i], syn.row_seg_ptr[i + 1]):  # plastic segments: what their arrival reads
+        due = later_slot(at, seg_delay[g], ring)
+        k = ev_n[due]
+        ev[due, k, 0] = g | (seg_proj[g] << EV_SHIFT)
+        ev[due, k, 1] = seg_start[g]
+        ev[due, k, 2] = seg_start[g + 1]
+        ev_n[due] = k + 1
 
 
 @njit(inline="always", _nrt=False)

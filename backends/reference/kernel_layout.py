@@ -96,8 +96,13 @@ SpikeRecord = namedtuple("SpikeRecord", "mask t i n")
 #: Static delivery (:func:`.delivery.static_delivery`): segments per neuron, their synapses and neuron blocks.
 StaticTables = namedtuple("StaticTables", "seg_ptr seg_start seg post w blk_ptr blk")
 #: The ring of arrivals: static sums, their block marks (also as 64-bit words), the rows
-#: holding marks and the neuron range convolutions reached per row; the plastic events per slot.
+#: holding marks and the neuron range convolutions reached per row; the plastic events per
+#: slot, each three words (segment | projection << ``EV_SHIFT``, first synapse, end) and
+#: their number per slot.
 Arrivals = namedtuple("Arrivals", "buf dirty dirty_words row_any row_range ev ev_n")
+#: A plastic event's first word holds its segment in the low ``EV_SHIFT`` bits, its projection above.
+EV_SHIFT = 40
+EV_SEG = (1 << EV_SHIFT) - 1
 #: Structured convolutions (:mod:`.convolution`): per-neuron entries, parameters, transposed kernels.
 ConvTables = namedtuple("ConvTables", "index par w")
 #: Plastic synapses: per neuron its outgoing segments; per segment its first synapse, delay

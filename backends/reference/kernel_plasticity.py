@@ -40,8 +40,8 @@ def table_decay(x, steps, table, r, dt, tau):
 
 
 @njit(inline="always", _nrt=False)
-def arrive(g, nxt, j, dt, plastic_on, syn, stdp, isyn):
-    """Spikes arriving at segment ``g`` at step ``j``: depress, deliver, advance the pre trace.
+def arrive(g, r, lo, hi, nxt, j, dt, plastic_on, syn, stdp, isyn):
+    """Spikes arriving at segment ``g`` (projection ``r``, synapses ``lo:hi``) at step ``j``: depress, deliver, update traces.
 
     Each synapse is first depressed by the postsynaptic trace (its value at time ``j``)
     and then delivers its new weight to ``isyn[0]`` (excitatory) or ``isyn[1]``
@@ -50,15 +50,14 @@ def arrive(g, nxt, j, dt, plastic_on, syn, stdp, isyn):
     line every 8 synapses (segments lie apart, so the hardware prefetcher would start
     on each one late). ``syn`` and ``stdp`` are a ``PlasticTables`` and ``Traces`` (:mod:`.kernel_layout`).
     """
-    seg_start, seg_proj, p_post, p_w, proj_inh = syn.seg_start, syn.seg_proj, syn.p_post, syn.p_w, syn.proj_inh
+    p_post, p_w, proj_inh = syn.p_post, syn.p_w, syn.proj_inh
     seg_xpre, seg_last, rules, pre_table, tr_shift = stdp.seg_xpre, stdp.seg_last, stdp.rules, stdp.pre_table, stdp.tr_shift
     xpost1 = stdp.xpost1
-    r = seg_proj[g]
     rk = rules[r, R_KIND]
     shift = tr_shift[r]  # trace of post neuron i: i + shift (>= 0)
     w_min, w_max, dep = rules[r, R_W_MIN], rules[r, R_W_MAX], rules[r, R_DEP]
     target = np.uint64(1 if proj_inh[r] else 0)
-    lo, hi = np.uint64(seg_start[g]), np.uint64(seg_start[g + 1])
+    lo, hi = np.uint64(lo), np.uint64(hi)
     ahead = np.uint64(nxt) - lo  # wraps when the next segment lies before this one: the sum below is exact
     updates = 0
     if not plastic_on:

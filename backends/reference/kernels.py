@@ -59,6 +59,8 @@ from .kernel_layout import (
     C_REFRAC,
     C_THETA_PLUS,
     C_V_RESET,
+    EV_SEG,
+    EV_SHIFT,
     G_FLAGS,
     G_HI,
     G_KIND,
@@ -104,7 +106,7 @@ def _step_loop(stamp: int) -> Callable[..., int]:
         theta, ica, refr, flag, flag_words = neurons.theta, neurons.ica, neurons.refr, neurons.flag, neurons.flag_words
         counts = neurons.counts
         pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng = sources
-        seg_start, ev, ev_n, rec_n = syn.seg_start, arrivals.ev, arrivals.ev_n, record.n
+        ev, ev_n, rec_n = arrivals.ev, arrivals.ev_n, record.n
         ring = ev_n.size
         n = v.size
         cap = record.t.size
@@ -130,11 +132,13 @@ def _step_loop(stamp: int) -> Callable[..., int]:
                     emit(arr_neuron[arr_ptr[0]], j, slot, width, counts, stats, record, static, arrivals, conv, syn)
                 arr_ptr[0] += 1
             # 2. arrivals at plastic synapses (post traces hold their value at time j)
-            for e in range(ev_n[slot]):
-                g = ev[slot, e]
-                nxt = seg_start[ev[slot, e + 1] if e + 1 < ev_n[slot] else g]
-                stats[ST_PLASTIC_UPDATES] += arrive(g, nxt, j, dt, plastic_on, syn, stdp, isyn)
-                stats[ST_SYN_EVENTS] += seg_start[g + 1] - seg_start[g]
+            n_ev = ev_n[slot]
+            for e in range(n_ev):
+                code, lo, hi = ev[slot, e, 0], ev[slot, e, 1], ev[slot, e, 2]
+                nxt = ev[slot, e + 1, 1] if e + 1 < n_ev else lo
+                updates = arrive(code & EV_SEG, code >> EV_SHIFT, lo, hi, nxt, j, dt, plastic_on, syn, stdp, isyn)
+                stats[ST_PLASTIC_UPDATES] += updates
+                stats[ST_SYN_EVENTS] += hi - lo
             ev_n[slot] = 0
             # postsynaptic traces advance to the end of the step
             decay_post_traces(stdp)

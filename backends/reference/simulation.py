@@ -158,7 +158,7 @@ class ReferenceSimulation(Simulation):
         self._build_array_events()
         need = max(1, n_seg * self._multiplicity)
         if getattr(self, "_ev", None) is None or self._ev.shape[1] != need:
-            self._ev = np.zeros((lay.ring, need), dtype=np.int64)
+            self._ev = np.zeros((lay.ring, need, 3), dtype=np.int64)  # per slot: plastic events of three words
         kernels.draw_poisson(0, self._pois_idx, self._pois_logq, self._pois_next, self._rng)
         cap = max(1 << 16, 4 * self._headroom)
         if getattr(self, "_rec_t", None) is None or self._rec_t.size != cap:
@@ -197,7 +197,7 @@ class ReferenceSimulation(Simulation):
             self._build_array_events()
             need = max(1, self._lay.seg_delay.size * self._multiplicity)
             if need > old_ring:
-                grown = np.zeros((self._lay.ring, need), dtype=np.int64)
+                grown = np.zeros((self._lay.ring, need, 3), dtype=np.int64)
                 grown[:, :old_ring] = self._ev
                 self._ev = grown
             if self._rec_t.size < 4 * self._headroom:
