@@ -289,8 +289,9 @@ class LoCSNetPlugin(ModelPlugin):
         """Run the converted spiking network of ``run_dir`` on ``backend`` over every query of ``data``.
 
         The trained weights of ``network.h5`` run unchanged (they never learn on-line);
-        a backend that cannot run the network (a cell type, connector or parameter it
-        lacks) refuses it when compiling, before any query, with
+        a backend that cannot run the network but runs its integrate-and-fire form (a chip
+        without leak, :mod:`.deployment`) runs that form and the result's ``notes`` say so;
+        one that runs neither refuses it when compiling, before any query, with
         :class:`~neurovpr.errors.UnsupportedFeatureError`. Metrics are those of ``eval``
         (precision at 100% recall, PR AUC, Recall@N over places); the prediction of a
         query is the place neuron with the most spikes, the output counts are the place
@@ -298,7 +299,7 @@ class LoCSNetPlugin(ModelPlugin):
         """
         from neurovpr.data import open_traverse
 
-        from .inference import SpikingClassifier
+        from .deployment import deployed_classifier
         from .places import place_ground_truth, query_tiles, read_positions_csv
         from .preprocess import preprocess
         from .report import score, similarity_distances
@@ -324,7 +325,7 @@ class LoCSNetPlugin(ModelPlugin):
         pre = run.info.get("preprocess", {})
         size = tuple(pre.get("size", run.arch.input_size))
         queries = preprocess(traverse.query.images(progress=True), size, patch_norm=bool(pre.get("patch_norm", True)))
-        clf = SpikingClassifier(run.network, run.arch, run.spiking, backend=backend, seed=int(seed))
+        clf, notes = deployed_classifier(run, backend, seed=int(seed))
         try:
             spikes = clf.run(queries, progress=True, desc="compare")
         finally:
@@ -342,6 +343,7 @@ class LoCSNetPlugin(ModelPlugin):
             "seconds_per_query": float(np.mean(spikes.seconds)),
             "activity": activity,
             "compile_seconds": clf.compile_seconds,
+            "notes": notes,
         }
 
     # -- sample presentation (neurovpr eval --activity-plots) ---------------------------------

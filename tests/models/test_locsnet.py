@@ -228,6 +228,22 @@ def test_a_query_of_the_wrong_shape_is_refused(trained) -> None:
         clf.query(np.full((28, 28), np.nan))
 
 
+def test_integrate_and_fire_form_keeps_the_weights_without_leak_or_groups(trained) -> None:
+    from neurovpr.models.locsnet.deployment import integrate_and_fire_form
+
+    grouped = dataclasses.replace(SPIKING, feature_groups=2)
+    net = to_spiking_network(_arch(), trained.parameters, grouped)
+    assert {"conv3.0", "conv3.1"} <= set(net.populations)
+    form, spiking = integrate_and_fire_form(net, _arch(), grouped)
+    assert spiking.feature_groups == 1 and "conv3" in form.populations and "conv3.0" not in form.populations
+    cells = [pop.cell_type for pop in form.populations.values() if not pop.is_source]
+    assert cells and all(cell.tau_m == nv.NO_LEAK for cell in cells)
+    assert all(cell.replace(tau_m=10.0) == net.populations["conv1"].cell_type for cell in cells[:1])
+    expected = to_spiking_network(_arch(), trained.parameters, dataclasses.replace(SPIKING, feature_groups=1))
+    for name, proj in expected.projections.items():
+        assert np.array_equal(np.asarray(form.projections[name].synapse.weight), np.asarray(proj.synapse.weight)), name
+
+
 def test_a_checkpoint_or_network_of_another_architecture_is_refused(trained, tmp_path) -> None:
     save_checkpoint(tmp_path / "model.pt", trained.state_dict)
     assert set(load_checkpoint(tmp_path / "model.pt", _arch())) >= {"conv1.weight", "places.weight"}
@@ -286,6 +302,14 @@ def test_train_and_eval_write_a_complete_run_directory(tmp_path, capsys) -> None
     activity = json.loads((run / "activity.json").read_text())
     assert block["synaptic_operations"]["Effective_ACs"] == activity["synaptic_events"] > 0
     assert block["synaptic_operations"]["Dense"] == block["synapses"] * 20 and 0.0 < block["activation_sparsity"] < 1.0
+    # on Speck (no leak): the integrate-and-fire form runs, and the row says so (Sinabs: the test command installs it)
+    from neurovpr.apps import compare
+
+    if nv.get_backend("speck").unavailable_reason() is None:
+        result = compare.compare_model(run, data, "reference,speck", progress=False, model=MODEL)
+        assert [row.backend for row in result.rows if row.ran] == ["reference", "speck"], result.table()
+        assert result.rows[1].output_counts.shape == (10, 10) and result.rows[1].output_counts.sum() > 0
+        assert any("integrate-and-fire form" in note and "tau_m 10 ms dropped" in note for note in result.notes())
 
 
 def test_train_refuses_a_dataset_with_too_few_places(tmp_path) -> None:
