@@ -88,6 +88,8 @@ def _args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--out", type=Path, default=Path("reports/modular_snn_vs_authors"), help="neurovpr's run and results")
     p.add_argument("--workers", type=int, default=None, help="neurovpr's worker processes (default: CPU cores)")
     p.add_argument("--only-authors", action="store_true", help="run the authors' code only (no neurovpr side)")
+    p.add_argument("--simulate-rest", action="store_true",
+                   help="neurovpr side: the code's 150 ms rest between images instead of reset()")  # fmt: skip
     return p.parse_args(argv)
 
 
@@ -110,7 +112,7 @@ def neurovpr_facts(args: argparse.Namespace, s: OracleSettings, traverse: Traver
     """Train and evaluate one modular SNN here with the same settings; the same figures as :func:`collect_facts`."""
     settings = TrainingSettings(
         params=ModuleParameters(n_neurons=s.n_e), epochs=s.epochs, module_size=s.module_size,
-        assignment_presentations=s.update_interval,
+        assignment_presentations=s.update_interval, simulate_rest=args.simulate_rest,
     )  # fmt: skip
     reference, query = traverse.reference.preprocessed(), traverse.query.preprocessed()
     run_dir = args.out / "run"
