@@ -51,6 +51,9 @@ case "$mode" in
         if [ -f scripts/install_synsense.sh ]; then
             bash scripts/install_synsense.sh .venv/bin/python
         fi
+        if [ -f scripts/install_nengo_dl.sh ]; then
+            bash scripts/install_nengo_dl.sh .venv/bin/python
+        fi
         exec .venv/bin/python -m pytest "$@"
         ;;
     *)

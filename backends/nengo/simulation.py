@@ -81,13 +81,7 @@ class NengoSimulation(HostedSimulation):
                     voltage_populations=voltage,
                     block_shapes=self._block_shapes,
                 )
-                if self._loihi:
-                    sim = new_loihi_simulator(built.net, dt=self._dt, seed=self._seed)
-                else:
-                    model = nengo.builder.Model(dt=self._dt / 1000.0, label=self._network.name)
-                    sim = nengo.Simulator(
-                        built.net, dt=self._dt / 1000.0, seed=self._seed % 2**31, model=model, progress_bar=False
-                    )
+                sim = self._new_simulator(built)
             except (nengo.exceptions.NengoException, NotImplementedError) as exc:
                 target = "NengoLoihi" if self._loihi else "Nengo"
                 raise UnsupportedFeatureError(
@@ -96,6 +90,20 @@ class NengoSimulation(HostedSimulation):
                 ) from exc
         self._built, self._sim = built, sim
         self._build_ns += time.perf_counter_ns() - started
+
+    def _new_simulator(self, built: BuiltNetwork) -> Any:
+        """The simulator of the built network: NengoLoihi's emulator or ``nengo.Simulator`` (a subclass may change it)."""
+        if self._loihi:
+            return new_loihi_simulator(built.net, dt=self._dt, seed=self._seed)
+        model = nengo.builder.Model(dt=self._dt / 1000.0, label=self._network.name)
+        return nengo.Simulator(built.net, dt=self._dt / 1000.0, seed=self._seed % 2**31, model=model, progress_bar=False)
+
+    def _reset_simulator(self, sim: Any) -> None:
+        """Return the simulator to its initial state (a subclass may change how)."""
+        if self._loihi:
+            reset_loihi_simulator(sim, seed=self._seed)
+        else:
+            sim.reset(seed=self._seed % 2**31)
 
     def _close(self) -> None:
         if self._sim is not None:
@@ -146,10 +154,7 @@ class NengoSimulation(HostedSimulation):
         if self._neuron_pops:
             sim = self._require_sim()
             with quiet_nengo():
-                if self._loihi:
-                    reset_loihi_simulator(sim, seed=self._seed)
-                else:
-                    sim.reset(seed=self._seed % 2**31)
+                self._reset_simulator(sim)
                 sim.clear_probes()
             assert self._built is not None
             for feeds in self._built.feeds.values():
