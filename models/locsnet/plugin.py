@@ -2,7 +2,8 @@
 
 ``train`` reads a traverse (the generic layout or a published one), labels the
 reference frames with places, preprocesses them to the network input, trains the
-rate network with torch, converts it to a spiking network, calibrates the place layer
+rate network with torch or, with ``--trainer nengo-dl``, with NengoDL as the paper did
+(:mod:`.nengo_training`), converts it to a spiking network, calibrates the place layer
 on the spiking network and writes the run directory (:mod:`.runs`). ``eval`` runs
 the query traverse through the spiking network on a backend, next to the rate model
 and SAD on the same inputs, prints the metrics and writes plots and the per-inference
@@ -44,6 +45,9 @@ class LoCSNetTrainOptions:
     """
 
     preset: Literal["paper", "small"] = option("paper", "layer sizes: paper (56x56, 8/16/32 filters) or small")
+    trainer: Literal["torch", "nengo-dl"] = option(
+        "torch", "train the rate network with torch, or with NengoDL (TensorFlow) as the paper did"
+    )
     frames_per_place: int = option(1, "aligned traverses: consecutive frames per place")
     positions: Path | None = option(None, "CSV set,index,x,y (metres): label places by grid tiles")
     tile_size: float = option(25.0, "grid tile side in metres")
@@ -58,7 +62,7 @@ class LoCSNetTrainOptions:
     checkpoint: Path | None = option(None, "start from this model.pt (same architecture)")
     no_patch_norm: bool = option(False, "plain grayscale input instead of patch normalisation")
     conv_bias: bool = option(False, "keep biases in the conv layers (the paper removed them)")
-    threads: int = option(_TRAINING.threads, "torch threads (1: fastest on a shared 2-core machine)")
+    threads: int = option(_TRAINING.threads, "torch or TensorFlow threads (1: fastest on a shared 2-core machine)")
     presentation: float = option(_SPIKING.presentation, "presentation window per image, ms")
     input_coding: Literal["poisson", "regular"] = option(_SPIKING.input_coding, "input spikes")
     input_rate: float = option(_SPIKING.input_rate, "rate of a pixel of value 1, Hz")
@@ -93,7 +97,7 @@ class LoCSNetPlugin(ModelPlugin):
     """LoCS-Net (Akcal et al., Frontiers in Neurorobotics 2025)."""
 
     name = "locsnet"
-    description = "LoCS-Net: convolutional spiking place classifier trained through SoftLIF (torch)"
+    description = "LoCS-Net: convolutional spiking place classifier trained through SoftLIF (torch or NengoDL)"
     train_options = LoCSNetTrainOptions
     eval_options = LoCSNetEvalOptions
 
@@ -118,6 +122,10 @@ class LoCSNetPlugin(ModelPlugin):
         if request.scheduler:
             raise ValidationError("LoCS-Net trains one network in one process; --scheduler is not supported for it.")
         settings = self._settings(o, request.seed)
+        if o.trainer == "nengo-dl":
+            from .nengo_training import import_nengo_dl
+
+            import_nengo_dl(settings.threads)  # refuse before the data is read when NengoDL is missing
         groups = o.feature_groups if o.feature_groups is not None else (8 if o.preset == "paper" else 1)
         spiking = SpikingParameters(dt=o.dt, tau_syn=o.tau_syn, input_rate=o.input_rate,
                                     presentation=o.presentation, input_coding=o.input_coding,
@@ -129,6 +137,14 @@ class LoCSNetPlugin(ModelPlugin):
         arch = make_arch(labels.n_places)
         if o.conv_bias:
             arch = dataclasses.replace(arch, conv_bias=True)
+        if o.trainer == "nengo-dl":
+            from neurovpr.errors import UnsupportedFeatureError
+
+            from .nengo_training import nengo_problems
+
+            problems = nengo_problems(arch, settings, checkpoint=o.checkpoint is not None)
+            if problems:
+                raise UnsupportedFeatureError(f"--trainer nengo-dl cannot train with {problems[0]}.")
         size = arch.input_size
         layer_populations(arch, spiking)  # a bad grouping fails before training
         weight_format = None
@@ -144,10 +160,15 @@ class LoCSNetPlugin(ModelPlugin):
         t0 = time.perf_counter()
         images, image_labels = _training_images(traverse, labels, size, not o.no_patch_norm)
         t_pre = time.perf_counter() - t0
-        from .training import train
+        if o.trainer == "nengo-dl":
+            from .nengo_training import train_nengo_dl
 
-        result = train(arch, images, image_labels, settings, weight_format=weight_format, progress=True,
-                       initial_state=initial)
+            result = train_nengo_dl(arch, images, image_labels, settings, progress=True)
+        else:
+            from .training import train
+
+            result = train(arch, images, image_labels, settings, weight_format=weight_format, progress=True,
+                           initial_state=initial)
         params, calibration = result.parameters, {"rate": result.calibration}
         t0 = time.perf_counter()
         if settings.place_loss == "current" and o.calibration_images > 0:
@@ -165,6 +186,7 @@ class LoCSNetPlugin(ModelPlugin):
         network = to_spiking_network(arch, params, spiking, name="locsnet")
         info = {
             "backend": request.backend,
+            "trainer": o.trainer,
             "seed": request.seed,
             "data": str(Path(request.data).resolve()),
             "positions": str(positions_used) if positions_used else None,
@@ -184,14 +206,15 @@ class LoCSNetPlugin(ModelPlugin):
         write_run(out, info=info, arch=arch, spiking=spiking, network=network, labels=labels,
                   state_dict=result.state_dict)
         last = result.history[-1]
-        return {"model": "locsnet", "run": str(out), "n_places": arch.n_places, "architecture": arch.describe(),
+        return {"model": "locsnet", "run": str(out), "trainer": o.trainer, "n_places": arch.n_places,
+                "architecture": arch.describe(),
                 "epochs": len(result.history), "train_accuracy": last["train_accuracy"], "loss": last["loss"],
                 "train_seconds": round(result.seconds, 2), "train_cpu_seconds": round(result.cpu_seconds, 2),
                 "total_seconds": round(time.perf_counter() - t_start, 2)}
 
     @staticmethod
     def _settings(o: LoCSNetTrainOptions, seed: int) -> Any:
-        from .training import TrainingSettings
+        from .settings import TrainingSettings
 
         return TrainingSettings(epochs=o.epochs, batch_size=o.batch_size, learning_rate=o.learning_rate,
                                 weight_decay=o.weight_decay, rate_penalty=o.rate_penalty, quantise=o.quantise,

@@ -1,8 +1,10 @@
-"""LoCS-Net's training hyper-parameters (torch-free, so the model's options read their defaults from here).
+"""LoCS-Net's training hyper-parameters and what a trainer returns (torch-free).
 
-:class:`TrainingSettings` holds every hyper-parameter of :func:`.training.train`; the
-command line's training options (``neurovpr train --model locsnet``) take their
-defaults from its fields, so each default is written once.
+:class:`TrainingSettings` holds every hyper-parameter of :func:`.training.train` (torch)
+and :func:`.nengo_training.train_nengo_dl` (NengoDL); the command line's training options
+(``neurovpr train --model locsnet``) take their defaults from its fields, so each default
+is written once. :class:`TrainingResult` is what both trainers return, and
+:func:`check_labels` the label check both apply before training.
 """
 
 from __future__ import annotations
@@ -11,9 +13,13 @@ import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
+import numpy as np
+
 from neurovpr.errors import ValidationError
 
-__all__ = ["TrainingSettings", "PLACE_LOSSES", "DEFAULT_TRAINING"]
+from .architecture import Architecture
+
+__all__ = ["TrainingSettings", "TrainingResult", "check_labels", "PLACE_LOSSES", "DEFAULT_TRAINING"]
 
 #: What the loss sees of the place layer: its input current, or its smoothed rate.
 PLACE_LOSSES = ("current", "rate")
@@ -81,3 +87,39 @@ class TrainingSettings:
 
 #: The defaults, for the options that show them.
 DEFAULT_TRAINING = TrainingSettings()
+
+
+@dataclass
+class TrainingResult:
+    """What a trainer returns (:func:`.training.train`, :func:`.nengo_training.train_nengo_dl`): arrays and record.
+
+    ``parameters`` are the arrays the spiking network is built from (on the chip's
+    grid when trained quantised, calibrated for ``place_loss="current"``);
+    ``state_dict`` is the torch model before calibration (to resume or fine-tune), ``None``
+    from the NengoDL trainer (its run has no ``model.pt``).
+    """
+
+    parameters: dict[str, np.ndarray]
+    state_dict: dict[str, Any] | None
+    history: list[dict[str, float]]
+    calibration: dict[str, float]
+    seconds: float
+    cpu_seconds: float
+
+
+def check_labels(arch: Architecture, labels: Any, n_images: int) -> np.ndarray:
+    """``labels`` as int64 places, one per image, every place with at least one image (else a clear error)."""
+    y = np.asarray(labels)
+    if y.shape != (n_images,) or not np.issubdtype(y.dtype, np.integer):
+        raise ValidationError(f"training labels must be {n_images} integers, one per image, got shape {y.shape}.")
+    if y.size and (y.min() < 0 or y.max() >= arch.n_places):
+        bad = int(y.min()) if y.min() < 0 else int(y.max())
+        raise ValidationError(f"training label {bad} is outside the {arch.n_places} places (0..{arch.n_places - 1}).")
+    counts = np.bincount(y, minlength=arch.n_places)
+    if (counts == 0).any():
+        empty = np.flatnonzero(counts == 0)
+        raise ValidationError(
+            f"place {int(empty[0])} has no training images ({empty.size} of {arch.n_places} places are empty); "
+            "every place needs at least one."
+        )
+    return y.astype(np.int64)

@@ -31,7 +31,6 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -41,7 +40,7 @@ from neurovpr.errors import ValidationError
 from .architecture import Architecture
 from .calibration import calibrate_places
 from .quantise import WeightFormat
-from .settings import TrainingSettings
+from .settings import TrainingResult, TrainingSettings, check_labels
 from .torchnet import LoCSNetTorch, load_state_dict_checked, to_numpy_parameters
 
 try:
@@ -51,41 +50,6 @@ except ImportError as exc:  # pragma: no cover - depends on the environment
     raise ImportError("LoCS-Net training needs torch: pip install torch==2.13.0 (the 'locsnet' extra).") from exc
 
 __all__ = ["TrainingSettings", "TrainingResult", "train", "check_labels"]
-
-
-@dataclass
-class TrainingResult:
-    """What :func:`train` returns: the trained arrays and the training record.
-
-    ``parameters`` are the arrays the spiking network is built from (on the chip's
-    grid when trained quantised, calibrated for ``place_loss="current"``);
-    ``state_dict`` is the torch model before calibration (to resume or fine-tune).
-    """
-
-    parameters: dict[str, np.ndarray]
-    state_dict: dict[str, Any]
-    history: list[dict[str, float]]
-    calibration: dict[str, float]
-    seconds: float
-    cpu_seconds: float
-
-
-def check_labels(arch: Architecture, labels: Any, n_images: int) -> np.ndarray:
-    """``labels`` as int64 places, one per image, every place with at least one image (else a clear error)."""
-    y = np.asarray(labels)
-    if y.shape != (n_images,) or not np.issubdtype(y.dtype, np.integer):
-        raise ValidationError(f"training labels must be {n_images} integers, one per image, got shape {y.shape}.")
-    if y.size and (y.min() < 0 or y.max() >= arch.n_places):
-        bad = int(y.min()) if y.min() < 0 else int(y.max())
-        raise ValidationError(f"training label {bad} is outside the {arch.n_places} places (0..{arch.n_places - 1}).")
-    counts = np.bincount(y, minlength=arch.n_places)
-    if (counts == 0).any():
-        empty = np.flatnonzero(counts == 0)
-        raise ValidationError(
-            f"place {int(empty[0])} has no training images ({empty.size} of {arch.n_places} places are empty); "
-            "every place needs at least one."
-        )
-    return y.astype(np.int64)
 
 
 def _shift(padded: torch.Tensor, dy: torch.Tensor, dx: torch.Tensor, h: int, w: int) -> torch.Tensor:
