@@ -178,9 +178,21 @@ def potentiate_diehl_cook(i, base, n, r, p_w, post_syn, rules, x_pre, xpost2, tr
 
     The same arithmetic as the general loop, without branches per synapse: a zero factor
     keeps the weight, ``(w_max - w) ** mu`` is taken as exactly 1 for ``mu = 0`` and as
-    ``w_max - w`` for ``mu = 1`` (what ``pow`` returns for those exponents), and a rule
-    without the second postsynaptic trace multiplies by nothing.
+    ``w_max - w`` for ``mu = 1`` (what ``pow`` returns for those exponents; each case its own
+    loop, so that no ``pow`` is computed there), and a rule without the second
+    postsynaptic trace multiplies by nothing.
     """
+    mu = rules[r, R_MU]
+    if mu == 0.0:
+        return diehl_cook_loop(i, base, n, r, p_w, post_syn, rules, x_pre, xpost2, tr_shift, 0)
+    if mu == 1.0:
+        return diehl_cook_loop(i, base, n, r, p_w, post_syn, rules, x_pre, xpost2, tr_shift, 1)
+    return diehl_cook_loop(i, base, n, r, p_w, post_syn, rules, x_pre, xpost2, tr_shift, 2)
+
+
+@njit(inline="always", _nrt=False)
+def diehl_cook_loop(i, base, n, r, p_w, post_syn, rules, x_pre, xpost2, tr_shift, form):
+    """The loop of :func:`potentiate_diehl_cook` for ``mu = 0`` (``form`` 0), ``mu = 1`` (1) or any ``mu`` (2)."""
     w_min, w_max, pot, x_tar, mu = rules[r, R_W_MIN], rules[r, R_W_MAX], rules[r, R_POT], rules[r, R_X_TAR], rules[r, R_MU]
     post2 = rules[r, R_TAU_POST2] > 0.0
     x_post2 = xpost2[i + tr_shift[r]]
@@ -189,7 +201,7 @@ def potentiate_diehl_cook(i, base, n, r, p_w, post_syn, rules, x_pre, xpost2, tr
         k = np.uint64(post_syn[base + q])
         w = p_w[k]
         room = w_max - w
-        scale = 1.0 if mu == 0.0 else (room if mu == 1.0 else room**mu)
+        scale = 1.0 if form == 0 else (room if form == 1 else room**mu)
         factor = (x_pre[q] - x_tar) * scale
         factor = factor * x_post2 if post2 else factor
         moved = min(max(w + pot * factor, w_min), w_max)
