@@ -6,7 +6,12 @@ from pathlib import Path
 
 import pytest
 
+from neurovpr.backendkit.tensorflow_env import tensorflow_defaults
 from neurovpr.paths import shared_datasets
+
+# NengoDL and NengoLoihi (when TensorFlow is installed) import TensorFlow: one thread per pool, Keras's home
+# in a temporary folder, before any test module imports them
+tensorflow_defaults(threads=1)
 
 
 @pytest.fixture(scope="session")

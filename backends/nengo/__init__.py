@@ -17,6 +17,7 @@ import warnings
 from types import MappingProxyType
 from typing import Any
 
+from neurovpr.backendkit.tensorflow_env import tensorflow_defaults
 from neurovpr.hardware.check import HardwareTarget
 from neurovpr.ir.network import Network
 from neurovpr.runtime.backend import Backend
@@ -45,6 +46,7 @@ class NengoBackend(Backend):
         NengoLoihi 1.1 warns at import that it was tested up to Nengo 3.2; it runs on
         Nengo 4.1 (its own emulator tests pass), so the warning is not repeated here.
         """
+        tensorflow_defaults()  # NengoLoihi imports TensorFlow when it is installed (Keras's home: a temporary folder)
         with warnings.catch_warnings():
             warnings.filterwarnings("ignore", message=".*nengo_loihi.*has not been tested.*")
             return super().unavailable_reason()

@@ -13,9 +13,8 @@ in ``sys.modules`` as the ``keras.src.engine`` modules, and the two class names 
 Nothing else is aliased.
 
 It also keeps TensorFlow quiet and inside its bounds: its C++ log level, its thread
-pools (``TF_NUM_INTRAOP_THREADS`` / ``TF_NUM_INTEROP_THREADS``, read when its runtime
-starts) and Keras's home folder (``KERAS_HOME``; Keras writes a ``keras.json`` there on
-first import) get defaults, each only where the caller has not set it. NengoDL's
+pools and Keras's home folder get defaults, each only where the caller has not set it
+(:mod:`neurovpr.backendkit.tensorflow_env`). NengoDL's
 warning that it was tested up to Nengo 3.2 is not repeated (it runs on Nengo 4.1: the
 backend's tests compare its spike counts with Nengo's own simulator).
 """
@@ -24,13 +23,11 @@ from __future__ import annotations
 
 import importlib
 import importlib.util
-import os
 import sys
-import tempfile
 import warnings
-from pathlib import Path
 from types import ModuleType
 
+from neurovpr.backendkit.tensorflow_env import tensorflow_defaults
 from neurovpr.errors import BackendUnavailableError
 
 __all__ = ["NENGO_DL_VERSION", "INSTALL_HINT", "configure_tensorflow", "alias_keras_names", "import_nengo_dl"]
@@ -45,26 +42,11 @@ INSTALL_HINT = (
 
 
 def configure_tensorflow(threads: int | None = 1) -> None:
-    """Defaults for TensorFlow's log level, thread pools and Keras's home, where none are set.
+    """TensorFlow's log level, thread pools (``threads`` each) and Keras's home folder, where the caller set none.
 
-    Parameters
-    ----------
-    threads
-        Threads of each TensorFlow pool (``None``: TensorFlow's own choice). Takes effect
-        only before TensorFlow's runtime starts; later calls keep the pools it has.
+    See :func:`neurovpr.backendkit.tensorflow_env.tensorflow_defaults`.
     """
-    os.environ.setdefault("TF_CPP_MIN_LOG_LEVEL", "2")
-    os.environ.setdefault("KERAS_HOME", str(Path(tempfile.gettempdir()) / f"neurovpr-keras-{os.getuid()}"))
-    if threads is not None:
-        os.environ.setdefault("TF_NUM_INTRAOP_THREADS", str(int(threads)))
-        os.environ.setdefault("TF_NUM_INTEROP_THREADS", str(int(threads)))
-    if "tensorflow" in sys.modules and threads is not None:
-        tf = sys.modules["tensorflow"]
-        try:
-            tf.config.threading.set_intra_op_parallelism_threads(int(threads))
-            tf.config.threading.set_inter_op_parallelism_threads(int(threads))
-        except RuntimeError:
-            pass  # the runtime has started: its pools stay as they are
+    tensorflow_defaults(threads)
 
 
 def alias_keras_names() -> list[str]:
