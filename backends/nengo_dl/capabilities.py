@@ -2,8 +2,9 @@
 
 NengoDL simulates the Nengo network the ``nengo`` backend builds, and its LIF step is
 Nengo's (the threshold crossing interpolated inside the step, the refractory period
-started there), so the inference subset, the refusals and the one conformance case the
-``nengo`` backend cannot pass are the same.
+started there), so the inference subset, the refusals, the tolerances and the conformance
+cases the ``nengo`` backend cannot pass are the same; each unsupported case keeps the
+``nengo`` backend's reason.
 """
 
 from __future__ import annotations
@@ -15,13 +16,12 @@ from neurovpr.backends.nengo.capabilities import NENGO_CAPABILITIES
 
 __all__ = ["NENGO_DL_CAPABILITIES"]
 
-#: Conformance cases (neurovpr.conformance) the ``nengo-dl`` backend cannot pass, with the reason.
-_UNSUPPORTED = {
-    "lif_rate_curr": (
-        "NengoDL's LIF, like Nengo's, places a spike inside its step (linear interpolation of the threshold "
-        "crossing) and starts the refractory period there, so it fires at the continuous-time LIF rate, not on "
-        "the step grid this case checks"
+NENGO_DL_CAPABILITIES = dataclasses.replace(
+    NENGO_CAPABILITIES,
+    unsupported=MappingProxyType(
+        {
+            case: f"NengoDL runs the nengo backend's network with Nengo's LIF step, so as there: {reason}"
+            for case, reason in NENGO_CAPABILITIES.unsupported.items()
+        }
     ),
-}
-
-NENGO_DL_CAPABILITIES = dataclasses.replace(NENGO_CAPABILITIES, unsupported=MappingProxyType(_UNSUPPORTED))
+)
