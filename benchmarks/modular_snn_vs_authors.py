@@ -90,6 +90,9 @@ def _args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--only-authors", action="store_true", help="run the authors' code only (no neurovpr side)")
     p.add_argument("--simulate-rest", action="store_true",
                    help="neurovpr side: the code's 150 ms rest between images instead of reset()")  # fmt: skip
+    p.add_argument("--dt", type=float, default=None, help="neurovpr side: the time step, ms (default: the model's, 0.1)")
+    p.add_argument("--delay-recurrent", type=float, default=None,
+                   help="neurovpr side: the E->I and I->E delay, ms (default: the model's, 0 as in the code)")  # fmt: skip
     return p.parse_args(argv)
 
 
@@ -111,8 +114,12 @@ def filtered_traverse(n: int) -> Traverse:
 def neurovpr_facts(args: argparse.Namespace, s: OracleSettings, traverse: Traverse) -> dict[str, Any]:
     """Train and evaluate one modular SNN here with the same settings; the same figures as :func:`collect_facts`."""
     settings = TrainingSettings(
-        params=ModuleParameters(n_neurons=s.n_e), epochs=s.epochs, module_size=s.module_size,
+        params=ModuleParameters(
+            n_neurons=s.n_e, **({} if args.delay_recurrent is None else {"delay_recurrent": args.delay_recurrent})
+        ),
+        epochs=s.epochs, module_size=s.module_size,
         assignment_presentations=s.update_interval, simulate_rest=args.simulate_rest,
+        **({} if args.dt is None else {"dt": args.dt}),
     )  # fmt: skip
     reference, query = traverse.reference.preprocessed(), traverse.query.preprocessed()
     run_dir = args.out / "run"

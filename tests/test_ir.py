@@ -179,24 +179,28 @@ def test_duplicate_names(net: nv.Network) -> None:
     assert list(net.projections) == ["src->curr", "second"]
 
 
-def test_delays_must_be_positive() -> None:
-    with _raises("StaticSynapse.delay must be > 0 ms, got 0.0."):
-        nv.StaticSynapse(delay=0.0)
-    with _raises("STDPMechanism.delay must be > 0 ms, got -1.0."):
+def test_delays_must_not_be_negative() -> None:
+    with _raises("StaticSynapse.delay must be >= 0 ms, got -0.5."):
+        nv.StaticSynapse(delay=-0.5)
+    with _raises("STDPMechanism.delay must be >= 0 ms, got -1.0."):
         nv.STDPMechanism(delay=-1.0)
-    with _raises("StaticSynapse.delay array must be 1-D or 2-D with every delay > 0 ms."):
-        nv.StaticSynapse(delay=np.array([1.0, 0.0]))
-    with _raises("FromListConnector.conn_list delays (column 4) must be > 0 ms."):
-        nv.FromListConnector(conn_list=[[0, 0, 1.0, 0.0]])
+    with _raises("StaticSynapse.delay array must be 1-D or 2-D with every delay >= 0 ms."):
+        nv.StaticSynapse(delay=np.array([1.0, -0.1]))
+    with _raises("FromListConnector.conn_list delays (column 4) must be >= 0 ms."):
+        nv.FromListConnector(conn_list=[[0, 0, 1.0, -1.0]])
+    # exactly 0 is a zero-delay synapse (docs/semantics.md)
+    assert nv.StaticSynapse(delay=0.0).delay == 0.0
+    assert nv.FromListConnector(conn_list=[[0, 0, 1.0, 0.0]]).conn_list[0, 3] == 0.0
 
 
 def test_delay_shorter_than_dt_fails_at_expand(net: nv.Network) -> None:
     net.connect("src", "curr", nv.AllToAllConnector(), nv.StaticSynapse(weight=1.0, delay=0.05), name="short")
-    with _raises("Projection 'short': delay 0.05 ms is shorter than the time step 0.1 ms."):
+    with _raises("Projection 'short': delay 0.05 ms is shorter than the time step 0.1 ms (and not 0)."):
         nv.expand(net, "short", dt=0.1, seed=1)
     assert np.all(nv.expand(net, "short", dt=0.05, seed=1).delay == 0.05)
     net.connect("src", "cond", nv.AllToAllConnector(), nv.StaticSynapse(delay=nv.Uniform(low=0.2, high=0.3)), name="rand")
-    with pytest.raises(ValidationError, match=r"^Projection 'rand': delay 0\.2\d* ms is shorter than the time step 0\.5 ms\.$"):
+    short = r"^Projection 'rand': delay 0\.2\d* ms is shorter than the time step 0\.5 ms \(and not 0\)\.$"
+    with pytest.raises(ValidationError, match=short):
         nv.expand(net, "rand", dt=0.5, seed=1)
     net.connect("curr", "cond", nv.OneToOneConnector(), name="default")
     np.testing.assert_array_equal(nv.expand(net, "default", dt=0.25, seed=1).delay, [0.25, 0.25, 0.25])

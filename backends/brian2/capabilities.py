@@ -17,5 +17,6 @@ CAPABILITIES = Capabilities(
     synapses=EVERY_SYNAPSE,
     learns=True,
     heterogeneous_delays=True,
+    zero_delays=True,  # between neurons (Brian2's zero delay); from a spike source they are refused when built
     recordables=EVERY_RECORDABLE,
 )

@@ -16,6 +16,7 @@ from __future__ import annotations
 from types import MappingProxyType
 from typing import Any
 
+from neurovpr.errors import UnsupportedFeatureError
 from neurovpr.hardware.check import HardwareTarget
 from neurovpr.ir.network import Network
 from neurovpr.runtime.backend import Backend
@@ -39,6 +40,12 @@ class ReferenceBackend(Backend):
         self, network: Network, *, dt: float, seed: int, hardware: HardwareTarget | None, **options: Any
     ) -> Simulation:
         # the simulator (numba and its compiled kernels) loads when a network is compiled, not with the declaration
+        zero = next((p.name for p in network.projections.values() if p.zero_delay), None)
+        if hardware is not None and zero is not None:
+            raise UnsupportedFeatureError(
+                f"Backend 'reference' cannot emulate hardware {hardware.name!r} with projection {zero!r}: it has a zero "
+                "delay, where the chips' synapses take at least one time step."
+            )
         if hardware is not None and hardware.spec.formats.arithmetic == "xylo":
             from .xylo import XyloSimulation
 

@@ -35,6 +35,7 @@ CAPABILITIES = Capabilities(
     synapses=EVERY_SYNAPSE,
     learns=True,
     heterogeneous_delays=True,
+    zero_delays=True,  # in floating point; the chip arithmetics refuse them (see the backend's _compile)
     arithmetic=frozenset(RECORDABLE_ON_HARDWARE),
     recordables=EVERY_RECORDABLE,
 )

@@ -22,6 +22,7 @@ REASONS = MappingProxyType(
         "IF_cond_exp_adaptive": "sPyNNaker has no neuron model with Diehl & Cook's adaptive threshold (theta)",
         "DiehlCookSTDP": "sPyNNaker has no timing or weight dependence for Diehl & Cook's rule",
         "SoftLIF": "it is a rate approximation used only for training",
+        "zero delay": "sPyNNaker's synapses take at least one time step",
     }
 )
 

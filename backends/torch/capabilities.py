@@ -41,6 +41,7 @@ CAPABILITIES = Capabilities(
     synapses=STATIC_SYNAPSE,
     learns=False,
     heterogeneous_delays=True,
+    zero_delays=True,
     recordables=EVERY_RECORDABLE,
     reasons=MappingProxyType(_PLASTIC),
     unsupported=MappingProxyType(_UNSUPPORTED),

@@ -39,11 +39,14 @@ that gives the paper's text where a user may want it:
 - weights above ``w_max`` after the per-image normalisation are clipped at once (the code
   clips them at the synapse's next update).
 
-- time step: 0.1 ms, Brian2's default in the code, so the E->I->E inhibition loop closes in
-  0.2 ms (two steps) as there; at 0.5 ms (``--dt 0.5``, cheaper) it closes in
-  1 ms, and with the 50 ms lockout every neuron then fires at the lockout's pace (about
-  7 spikes per image instead of about 1, all neurons of a module on one place;
-  ``tests/models/test_modular_snn_statistics.py``); paper: not stated.
+- recurrent synapses: E->I and I->E without delay, as the code's Brian2 synapses (zero-delay
+  synapses, docs/semantics.md), so the inhibition loop closes in two steps as there; with a
+  delay of one step each (``ModuleParameters(delay_recurrent=dt)``) it takes four and the
+  excitatory layer fires about 1.5 times as often per image as the code's; paper: not stated.
+- time step: 0.1 ms, Brian2's default in the code, so the loop closes in 0.2 ms; at 0.5 ms
+  (``--dt 0.5``, cheaper) it closes in 1 ms, and with the 50 ms lockout every neuron then
+  fires at the lockout's pace (about 7 spikes per image instead of about 1, all neurons of a
+  module on one place; ``tests/models/test_modular_snn_statistics.py``); paper: not stated.
 - integration: exact over each step (the code: Euler); the 150 ms rest after each image is
   replaced by a reset of the state (``--simulate-rest`` simulates it).
 

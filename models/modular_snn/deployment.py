@@ -350,6 +350,9 @@ def to_current_based(
         if proj.receptor_type == "inhibitory":
             weight = weight * inh_scale.get(proj.post, 1.0)
         delay = None if proj.synapse.delay is None else conns.delay
+        if delay is not None and np.any(delay == 0):
+            # zero-delay synapses (the module's E -> I -> E loop) take one step: the targets' synapses start there
+            delay = float(dt) if np.all(delay == 0) else np.where(delay == 0, dt, delay)
         if one_delay and delay is not None and np.unique(delay).size > 1:
             delay = float(max(np.rint(float(np.mean(delay)) / dt), 1.0) * dt)
         out.connect(
@@ -436,6 +439,9 @@ def deployed_network(
         "deployed as the current-based approximation: IF_curr_exp with v_thresh + learned theta per neuron, conductance "
         f"weights times (E_rev - V_ref), V_ref per neuron and receptor the {v_ref.source} (means: {means})"
     )
+    zero = [proj.name for proj in network.projections.values() if proj.zero_delay]
+    if zero:
+        note += f"; zero-delay projections ({', '.join(zero)}) delayed by one step ({dt:g} ms)"
     if form == "current-one-filter":
         both = {p for p in network.populations if {"excitatory", "inhibitory"} <= _receptors(network).get(p, set())}
         parts = []

@@ -14,10 +14,12 @@ doing so when the IR gains one, and no backend spells the lists out again::
 
 from __future__ import annotations
 
+from types import MappingProxyType
+
 from neurovpr.ir.cells import CELL_TYPES, NeuronType, SourceType
 from neurovpr.ir.connectors import CONNECTORS
 from neurovpr.ir.synapses import SYNAPSE_TYPES, Synapse
-from neurovpr.runtime.backend import Capabilities
+from neurovpr.runtime.backend import ZERO_DELAY, Capabilities
 
 __all__ = [
     "EVERY_CONNECTOR",
@@ -57,4 +59,5 @@ CURRENT_LIF_INFERENCE = Capabilities(
     learns=False,
     heterogeneous_delays=True,
     recordables=frozenset({"v"}),
+    reasons=MappingProxyType({ZERO_DELAY: "its synaptic delays start at one time step (a zero delay is not built)"}),
 )

@@ -118,5 +118,6 @@ NOT_STANDARD_PYNN: Mapping[str, str] = MappingProxyType(
         "cell type, and neither NEST nor Brian2 under PyNN has an exact equivalent",
         "SoftLIF": "it is a rate approximation used only for training",
         "DiehlCookSTDP": "PyNN has no standard weight or timing dependence for Diehl & Cook's rule",
+        "zero delay": "PyNN's minimum delay (min_delay) is one time step",
     }
 )

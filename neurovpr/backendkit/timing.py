@@ -13,7 +13,7 @@ _GRID_SLACK = 1e-9
 
 
 def delay_steps(delay_ms: np.ndarray | float, dt: float) -> np.ndarray:
-    """Delays in whole steps: ``round(delay / dt)``, at least one.
+    """Delays in whole steps: ``round(delay / dt)``, at least one, except a zero delay (zero steps).
 
     Parameters
     ----------
@@ -27,7 +27,8 @@ def delay_steps(delay_ms: np.ndarray | float, dt: float) -> np.ndarray:
     numpy.ndarray
         ``int64`` steps, the shape of ``delay_ms``.
     """
-    return np.maximum(np.rint(np.asarray(delay_ms, dtype=np.float64) / dt), 1).astype(np.int64)
+    delay = np.asarray(delay_ms, dtype=np.float64)
+    return np.where(delay == 0, 0, np.maximum(np.rint(delay / dt), 1)).astype(np.int64)
 
 
 def grid_steps(times_ms: np.ndarray, dt: float) -> np.ndarray:

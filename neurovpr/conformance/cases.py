@@ -30,6 +30,8 @@ CASES = MappingProxyType(
         "delay_shift": "changing a projection's delay shifts the postsynaptic spikes by exactly that much",
         "delay_heterogeneous": "per-connection delays within one projection each shift their target's spike",
         "delay_rounding": "a delay that is not a multiple of dt is rounded to the nearest whole step",
+        "zero_delay": "a zero-delay synapse between neurons acts from the step after the presynaptic spike (Brian2's "
+        "zero delay): the postsynaptic spike comes exactly one step earlier than with a delay of dt",
         "spike_array_rounding": "SpikeSourceArray times are rounded to the nearest step",
         "ca2_adaptation": "IF_curr_exp_ca2_adaptive: I_ca2 jumps by i_alpha per spike, decays with tau_ca2, ISIs grow",
         "spike_lockout": "IF_cond_exp_adaptive with tau_lockout: intervals of max(lockout, refractory + time to threshold), "

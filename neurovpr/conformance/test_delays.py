@@ -105,3 +105,27 @@ def test_spike_array_times_rounded(backend):
     np.testing.assert_allclose(sim.spike_trains("src")[0], on_grid, rtol=0, atol=tol)
     expected = np.array(on_grid) + 1.0 + latency_steps() * DT
     np.testing.assert_allclose(_post_trains(sim, 1)[0], expected, rtol=0, atol=tol)
+
+
+def _relay(delay) -> nv.Network:
+    """A source drives neuron ``a`` (delay dt), which drives ``b`` through ``delay``."""
+    net = nv.Network("relay")
+    net.add_population("src", 1, nv.SpikeSourceArray.from_lists([list(T_SRC)]))
+    net.add_population("a", 1, nv.IF_curr_exp(**POST))
+    net.add_population("b", 1, nv.IF_curr_exp(**POST))
+    net.connect("src", "a", nv.AllToAllConnector(), nv.StaticSynapse(weight=WEIGHT, delay=DT))
+    net.connect("a", "b", nv.AllToAllConnector(), nv.StaticSynapse(weight=WEIGHT, delay=delay))
+    return net
+
+
+def test_zero_delay(backend):
+    """``a`` fires at ``t_src + dt + k dt``; ``b`` at ``t_a + d + k dt``, with ``d = 0`` as well as ``d = dt``."""
+    case = "zero_delay"
+    tol = backend.tol(case).spike_time_ms
+    t_a = _expected(DT)
+    for delay in (0.0, DT):
+        sim = backend.compile(_relay(delay), case=case, dt=DT)
+        sim.run(T_STOP)
+        np.testing.assert_allclose(sim.spike_trains("a")[0], t_a, rtol=0, atol=tol, err_msg="a")
+        expected = t_a + delay + latency_steps() * DT
+        np.testing.assert_allclose(sim.spike_trains("b")[0], expected, rtol=0, atol=tol, err_msg=f"b, delay {delay} ms")

@@ -241,9 +241,10 @@ def expand(network: Network, projection: Projection | str, *, dt: float, seed: i
         delay = np.full(pre.size, float(dt))
     else:
         delay = _values(proj, "delay", syn.delay, pre, post, seed, DELAY)
-    if delay.size and delay.min() < dt * (1 - 1e-9):
+    short = delay[(delay != 0) & (delay < dt * (1 - 1e-9))]
+    if short.size:
         raise ValidationError(
-            f"Projection {proj.name!r}: delay {delay.min():g} ms is shorter than the time step {dt:g} ms."
+            f"Projection {proj.name!r}: delay {short.min():g} ms is shorter than the time step {dt:g} ms (and not 0)."
         )
     bounds = syn.weight_bounds
     if bounds is not None and weight.size and (weight.min() < bounds[0] or weight.max() > bounds[1]):

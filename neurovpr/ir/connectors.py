@@ -148,8 +148,8 @@ class FromListConnector(Connector):
             raise ValidationError(
                 f"FromListConnector.conn_list row {row} has a negative or non-integer index {idx[row].tolist()}."
             )
-        if arr.shape[1] == 4 and np.any(arr[:, 3] <= 0):
-            raise ValidationError("FromListConnector.conn_list delays (column 4) must be > 0 ms.")
+        if arr.shape[1] == 4 and np.any(arr[:, 3] < 0):
+            raise ValidationError("FromListConnector.conn_list delays (column 4) must be >= 0 ms.")
         object.__setattr__(self, "conn_list", arr)
 
     def check_sizes(self, pre_size: int, post_size: int, where: str) -> None:

@@ -117,6 +117,15 @@ class Projection(IRNode):
         """True when the synapse type learns."""
         return self.synapse.plastic
 
+    @property
+    def zero_delay(self) -> bool:
+        """True when some connection has a delay of exactly 0 ms (a zero-delay synapse, docs/semantics.md)."""
+        cl = self.connector.conn_list if isinstance(self.connector, FromListConnector) else None
+        if cl is not None and cl.shape[1] == 4:
+            return bool(np.any(cl[:, 3] == 0))
+        delay = self.synapse.delay
+        return isinstance(delay, (float, np.ndarray)) and bool(np.any(np.asarray(delay) == 0))
+
 
 class Network:
     """A spiking network: named populations and the projections between them.

@@ -6,7 +6,10 @@ A weight is a number, a :class:`~neurovpr.ir.distributions.Distribution`, or an 
 (see :mod:`neurovpr.ir.connectivity`), or 2-D ``(n_pre, n_post)`` read at each
 connection's ``[pre, post]``. For a :class:`~neurovpr.ir.connectors.ConvolutionConnector`
 the weight is the kernel, shaped ``(out_channels, in_channels, kh, kw)``.
-Delays are in ms; ``None`` means one simulation time step (PyNN's minimum delay).
+Delays are in ms; ``None`` means one simulation time step (PyNN's minimum delay). A delay of
+exactly 0 is a *zero-delay* synapse (a neuron's spike acts from the next step, as Brian2's
+zero delay does; see docs/semantics.md); backends that cannot run it refuse it by name
+(``Capabilities.zero_delays``).
 
 Sign convention: projections onto the ``inhibitory`` receptor and all projections
 onto conductance-based neurons take non-negative weights (the receptor gives the
@@ -90,10 +93,10 @@ class Synapse(IRNode):
         owner = type(self).__name__
         object.__setattr__(self, "weight", _check_value(owner, "weight", self.weight, allow_none=False))  # type: ignore[attr-defined]
         delay = _check_value(owner, "delay", self.delay, allow_none=True)  # type: ignore[attr-defined]
-        if isinstance(delay, float) and delay <= 0:
-            raise ValidationError(f"{owner}.delay must be > 0 ms, got {delay!r}.")
-        if isinstance(delay, np.ndarray) and (delay.ndim == 4 or np.any(delay <= 0)):
-            raise ValidationError(f"{owner}.delay array must be 1-D or 2-D with every delay > 0 ms.")
+        if isinstance(delay, float) and delay < 0:
+            raise ValidationError(f"{owner}.delay must be >= 0 ms, got {delay!r}.")
+        if isinstance(delay, np.ndarray) and (delay.ndim == 4 or np.any(delay < 0)):
+            raise ValidationError(f"{owner}.delay array must be 1-D or 2-D with every delay >= 0 ms.")
         object.__setattr__(self, "delay", delay)
         super().__post_init__()
 

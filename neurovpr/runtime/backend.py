@@ -21,7 +21,10 @@ if TYPE_CHECKING:
     from neurovpr.ir.network import Network
     from neurovpr.runtime.simulation import Simulation
 
-__all__ = ["Capabilities", "Backend", "ToleranceOverride", "capability_problems", "unsupported_error"]
+__all__ = ["Capabilities", "Backend", "ToleranceOverride", "ZERO_DELAY", "capability_problems", "unsupported_error"]
+
+#: The feature name of a zero-delay synapse in refusals and in ``Capabilities.reasons``.
+ZERO_DELAY = "zero delay"
 
 
 def unsupported_error(backend: str, problems: list[str]) -> UnsupportedFeatureError | None:
@@ -51,6 +54,9 @@ def capability_problems(capabilities: Capabilities, network: Network) -> list[st
             refuse("connector", conn, f"projection {proj.name!r}")
         if syn not in capabilities.synapses:
             refuse("synapse", syn, f"projection {proj.name!r}")
+        if not capabilities.zero_delays and proj.zero_delay:
+            reason = capabilities.reasons.get(ZERO_DELAY)
+            problems.append(f"a zero delay (projection {proj.name!r})" + (f": {reason}" if reason else ""))
     return problems
 
 
@@ -86,6 +92,9 @@ class Capabilities:
         The sentence ``run`` raises when ``runs`` is false.
     heterogeneous_delays
         Whether delays may differ between the synapses of one projection.
+    zero_delays
+        Whether it runs zero-delay synapses (``delay=0``; docs/semantics.md); a backend
+        without them refuses such a projection, with ``reasons["zero delay"]`` when given.
     arithmetic
         The chip arithmetics it computes in with ``hardware=``: values of a hwspec's
         ``[formats].arithmetic`` (``"loihi1"``, ``"loihi2"``, ``"spinnaker"``).
@@ -106,6 +115,7 @@ class Capabilities:
     runs: bool = True
     run_refusal: str = ""
     heterogeneous_delays: bool = True
+    zero_delays: bool = False
     arithmetic: frozenset[str] = frozenset()
     recordables: frozenset[str] = frozenset({"v"})
     reasons: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
@@ -122,6 +132,7 @@ class Capabilities:
             "runs": self.runs,
             "run_refusal": self.run_refusal or None,
             "heterogeneous_delays": self.heterogeneous_delays,
+            "zero_delays": self.zero_delays,
             "arithmetic": sorted(self.arithmetic),
             "recordables": sorted(self.recordables),
             "reasons": dict(self.reasons),

@@ -47,3 +47,13 @@ def test_hyperactive_fraction(trained: tuple[np.ndarray, np.ndarray, np.ndarray]
     _, responses, _ = trained
     fired_for_all = np.mean(np.count_nonzero(responses, axis=0) == responses.shape[0])
     assert fired_for_all <= 0.2, fired_for_all
+
+
+def test_the_inhibition_loop_has_no_delay_as_in_the_authors_code() -> None:
+    """E->I and I->E are zero-delay synapses (Brian2's on_pre without delay); one step each is an option."""
+    from neurovpr.models.modular_snn import ModuleParameters, build_module
+
+    net = build_module(ModuleParameters(n_neurons=4))
+    assert net.projections["exc->inh"].synapse.delay == 0.0 and net.projections["lateral"].synapse.delay == 0.0
+    stepped = build_module(ModuleParameters(n_neurons=4, delay_recurrent=0.1))
+    assert not any(p.zero_delay for p in stepped.projections.values())
