@@ -66,28 +66,42 @@ def arrive(g, r, lo, hi, nxt, j, dt, plastic_on, syn, stdp, isyn):
                 prefetch(p_w, ahead + q)
                 prefetch(p_post, ahead + q)
             isyn[target, p_post[q]] += p_w[q]
-    else:
-        # additive: w - dep w_max x_post; Diehl & Cook: w - dep x_post; multiplicative: w - dep (w - w_min) x_post
-        mult = rk == RULE_MULTIPLICATIVE
+    elif rk == RULE_MULTIPLICATIVE:
+        updates = depress(lo, hi, ahead, shift, target, dep, dep, w_min, w_max, p_post, p_w, xpost1, isyn, True)
+    else:  # additive: w - dep w_max x_post; Diehl & Cook: w - dep x_post
         step = dep * w_max if rk == RULE_ADDITIVE else dep
-        for q in range(lo, hi):  # without branches: a zero trace keeps the weight
-            if (q & np.uint64(7)) == 0:
-                prefetch(p_w, ahead + q)
-                prefetch(p_post, ahead + q)
-            post = p_post[q]
-            x_post = xpost1[np.uint64(post + shift)]
-            w = p_w[q]
-            rate = dep * (w - w_min) if mult else step
-            moved = min(max(w - rate * x_post, w_min), w_max)
-            w = moved if x_post != 0.0 else w
-            p_w[q] = w
-            updates += x_post != 0.0
-            isyn[target, post] += w
+        updates = depress(lo, hi, ahead, shift, target, step, dep, w_min, w_max, p_post, p_w, xpost1, isyn, False)
     if rk == RULE_DIEHL_COOK:
         seg_xpre[g] = 1.0
     else:
         seg_xpre[g] = table_decay(seg_xpre[g], j - seg_last[g], pre_table, r, dt, rules[r, R_TAU_PRE]) + 1.0
     seg_last[g] = j
+    return updates
+
+
+@njit(inline="always", _nrt=False)
+def depress(lo, hi, ahead, shift, target, step, dep, w_min, w_max, p_post, p_w, xpost1, isyn, mult):
+    """Depress synapses ``lo:hi`` by their postsynaptic traces and deliver them; return the updates.
+
+    ``w - step x_post`` (additive, Diehl & Cook), or ``w - dep (w - w_min) x_post`` when
+    ``mult`` (a constant at each call, so each loop computes one form), clipped to
+    ``[w_min, w_max]``, without branches: a zero trace keeps the weight. ``ahead`` is
+    :func:`arrive`'s prefetch offset.
+    """
+    updates = 0
+    for q in range(lo, hi):
+        if (q & np.uint64(7)) == 0:
+            prefetch(p_w, ahead + q)
+            prefetch(p_post, ahead + q)
+        post = p_post[q]
+        x_post = xpost1[np.uint64(post + shift)]
+        w = p_w[q]
+        rate = dep * (w - w_min) if mult else step
+        moved = min(max(w - rate * x_post, w_min), w_max)
+        w = moved if x_post != 0.0 else w
+        p_w[q] = w
+        updates += x_post != 0.0
+        isyn[target, post] += w
     return updates
 
 
