@@ -367,6 +367,7 @@ class LoCSNetPlugin(ModelPlugin):
             "activity": activity,
             "compile_seconds": clf.compile_seconds,
             "notes": notes,
+            "network": clf.sim.network if notes else None,  # the form deployed there, for its own partition
         }
 
     # -- sample presentation (neurovpr eval --activity-plots) ---------------------------------

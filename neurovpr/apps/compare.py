@@ -33,6 +33,7 @@ import numpy as np
 from neurovpr.apps import modelapi
 from neurovpr.apps.rundir import NETWORK_FILE, RunDir
 from neurovpr.errors import BackendUnavailableError, UnsupportedFeatureError, ValidationError
+from neurovpr.ir.network import Network
 from neurovpr.runtime import registry
 
 __all__ = [
@@ -144,7 +145,7 @@ class Comparison:
             verdict = "fits" if fit["fits"] else f"does NOT fit ({fit['violations']} limits broken)"
             out.append(
                 f"the network {verdict} {self.hardware} at dt {fit['dt_ms']:g} ms: {fit['chips']} chip(s), {fit['cores']} "
-                "cores, the partition every energy figure uses"
+                "cores, the partition of every energy figure but those a row's note names"
             )
         return out
 
@@ -299,7 +300,11 @@ def _check_result(model: str, backend: str, result: Any) -> dict[str, Any]:
     activity = result.get("activity")
     if activity is not None and not isinstance(activity, Mapping):
         raise ValidationError(f"{where} returned activity of type {type(activity).__name__}, expected a dict.")
+    deployed = result.get("network")
+    if deployed is not None and not isinstance(deployed, Network):
+        raise ValidationError(f"{where} returned a network of type {type(deployed).__name__}, expected a neurovpr Network.")
     return {
+        "network": deployed,
         "metrics": {str(k): _finite_or_none(v) for k, v in result["metrics"].items()},
         "predictions": predictions.astype(np.int64),
         "output_counts": counts,
@@ -475,6 +480,17 @@ def _one_backend(
             )
         agree = agreement(res["predictions"], ref.predictions)
         corr = spike_count_correlation(res["output_counts"], ref.output_counts)
+    if res["network"] is not None and spec is not None:
+        # the model ran another form of its network here (e.g. integrate-and-fire on a chip without leak): its own partition
+        from neurovpr.hardware.check import check_network
+
+        network = res["network"]
+        fit = check_network(network, spec, seed=seed, dt=None if fit is None else fit.spec.timing.time_step_ms)
+        verdict = "fits" if fit.fits else f"does not fit ({len(fit.partition.violations)} limits broken)"
+        res["notes"] += (
+            f"its energy uses the partition of the form that ran: it {verdict} {spec.name}, {len(fit.partition.cores)} cores, "
+            f"{fit.partition.chips} chip(s)",
+        )
     energy = None if spec is None else _energy(res["activity"], spec, network, None if fit is None else fit.partition)
     return BackendComparison(
         neurobench=_neurobench(res["activity"], network, seed),

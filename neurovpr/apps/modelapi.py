@@ -173,7 +173,9 @@ class ModelPlugin:
         ints), ``"output_counts"`` (a ``(queries, outputs)`` array of output spike
         counts), ``"seconds_per_query"`` and ``"activity"`` (per-inference counts as
         ``Simulation.statistics()`` gives them), and optionally ``"notes"`` (sentences
-        on how the model was deployed there, shown by ``compare``). A model that cannot
+        on how the model was deployed there, shown by ``compare``) and ``"network"`` (the
+        network that ran there when it is not the run's own, e.g. a form the backend
+        holds: ``compare`` partitions it for that row's energy). A model that cannot
         run on the backend raises :class:`~neurovpr.errors.UnsupportedFeatureError` naming why.
         """
         raise NotImplementedError(f"Model {self.name!r} does not implement inference for compare.")

@@ -374,5 +374,5 @@ def test_energy_and_verdict_share_the_partition_check_makes(plugin: TemplatePlug
     assert result.hardware_fit == {"fits": checked["fits"], "dt_ms": 0.1, "chips": checked["chips"],
                                    "cores": checked["cores"], "violations": 0}  # fmt: skip
     assert result.rows[0].energy["cores"] == checked["cores"] == cores[0.1]
-    assert any("the partition every energy figure uses" in note for note in result.notes())
+    assert any("the partition of every energy figure" in note for note in result.notes())
     assert result.as_dict()["hardware_fit"]["cores"] == cores[0.1]

@@ -310,6 +310,9 @@ def test_train_and_eval_write_a_complete_run_directory(tmp_path, capsys) -> None
         assert [row.backend for row in result.rows if row.ran] == ["reference", "speck"], result.table()
         assert result.rows[1].output_counts.shape == (10, 10) and result.rows[1].output_counts.sum() > 0
         assert any("integrate-and-fire form" in note and "tau_m 10 ms dropped" in note for note in result.notes())
+        # with a hwspec, the speck row's energy uses the partition of the form that ran there
+        on_chip = compare.compare_model(run, data, "reference,speck", hardware="speck", progress=False, model=MODEL)
+        assert any("speck: its energy uses the partition of the form that ran: it fits speck" in n for n in on_chip.notes())
 
 
 def test_train_refuses_a_dataset_with_too_few_places(tmp_path) -> None:
