@@ -24,6 +24,10 @@ find_python() {
     return 1
 }
 
+# pip leaves bytecode to the first import (a fresh install then skips compiling every file of
+# torch, TensorFlow and the rest, most of which the demo and the tests never import)
+export PIP_NO_COMPILE=1
+
 if [ ! -x .venv/bin/python ]; then
     "$(find_python)" -m venv .venv
 fi
