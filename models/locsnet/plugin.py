@@ -352,9 +352,7 @@ class LoCSNetPlugin(ModelPlugin):
         try:
             spikes = clf.run(queries, progress=True, desc="compare")
         finally:
-            close = getattr(clf.sim, "close", None)
-            if close is not None:
-                close()  # Lava's runtime processes, Nengo's simulator
+            clf.sim.close()  # Lava's runtime processes, Nengo's simulator
         metrics, _, _ = score(similarity_distances(spikes.counts), gt)
         activity = None
         if spikes.activity is not None:

@@ -474,9 +474,7 @@ def _infer_job(
         seconds = time.perf_counter() - start
         after = sim.statistics()
     finally:
-        close = getattr(sim, "close", None)
-        if close is not None:
-            close()
+        sim.close()
     keys = ("steps", "neuron_updates", "spikes", "synaptic_events", "plastic_updates")
     stats = np.array([float(after.get(k, 0) - before.get(k, 0)) for k in keys])
     return npz_bytes(counts=counts, stats=stats, stat_keys=np.array(keys), seconds=np.float64(seconds), note=np.array(note))

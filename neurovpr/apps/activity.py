@@ -60,6 +60,4 @@ def plot_sample_activity(
         sim.run(sample.duration_ms, inputs=sample.inputs)
         return sim.plot_activity(out_dir, title=sample.title)
     finally:
-        close = getattr(sim, "close", None)
-        if close is not None:
-            close()  # Lava's runtime processes, Nengo's simulator
+        sim.close()

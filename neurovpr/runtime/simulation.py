@@ -315,6 +315,13 @@ class Simulation(ABC):
         """Activity counted since compile: steps, neuron updates, spikes, synaptic events, plastic updates."""
         return dict(self._statistics())
 
+    def close(self) -> None:
+        """Release what the simulator holds outside this process (Lava's runtime, Nengo's simulator); a no-op by default.
+
+        The simulation cannot run afterwards on backends that release something.
+        """
+        return None  # nothing outside the process on this backend
+
     def plot_activity(
         self, out_dir: str | os.PathLike[str], populations: Sequence[str] | None = None, *, title: str | None = None
     ) -> dict[str, Path]:
