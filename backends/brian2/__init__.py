@@ -70,6 +70,15 @@ class Brian2Backend(Backend):
     capabilities = CAPABILITIES
     options = MappingProxyType({"target": "numpy"})
 
+    def network_problems(self, network: Network) -> list[str]:
+        """Zero delays from spike sources: such a spike acts in the step it is stamped at, before Brian2 delivers it."""
+        return [
+            f"a zero delay from a spike source (projection {proj.name!r}): it acts in the step the source spike is stamped "
+            "at, and Brian2 delivers it one step later (zero delays between neurons run)"
+            for proj in network.projections.values()
+            if proj.zero_delay and network.populations[proj.pre].is_source
+        ]
+
     def _compile(
         self, network: Network, *, dt: float, seed: int, hardware: HardwareTarget | None, **options: Any
     ) -> Simulation:

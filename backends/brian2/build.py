@@ -278,12 +278,6 @@ def _build_synapses(
     # step j is stamped (j + 1) dt, a source's at j dt; either is pushed at the start of
     # step j + 1 and delivered D steps later, so D = steps for neurons, steps - 1 for sources.
     brian_steps = steps - (1 if pre.stamp_offset == 0 else 0)
-    if brian_steps.size and brian_steps.min() < 0:
-        # a source's spike with zero delay acts in the step it is stamped at, before Brian2 delivers it
-        raise UnsupportedFeatureError(
-            f"Backend 'brian2' cannot run projection {proj.name!r}: a zero delay from a spike source, which acts in the "
-            "step the source spike is stamped at; Brian2 delivers it one step later (zero delays between neurons run)."
-        )
     homogeneous = brian_steps.size == 0 or np.all(brian_steps == brian_steps[0])
     delay = None
     if homogeneous:
