@@ -33,6 +33,8 @@ import numpy as np
 from neurovpr.apps import modelapi
 from neurovpr.apps.rundir import NETWORK_FILE, RunDir
 from neurovpr.errors import BackendUnavailableError, UnsupportedFeatureError, ValidationError
+from neurovpr.hardware.check import check_network
+from neurovpr.hardware.hwspec import load_hwspec
 from neurovpr.ir.network import Network
 from neurovpr.runtime import registry
 
@@ -397,9 +399,6 @@ def compare_model(
     spec = fit = None
     network = _run_network(run_dir)
     if hardware is not None:
-        from neurovpr.hardware.check import check_network
-        from neurovpr.hardware.hwspec import load_hwspec
-
         spec = load_hwspec(hardware)
         if network is not None:
             # one partition, as `neurovpr check --run RUN_DIR` makes it: the run's time step and this seed
@@ -482,8 +481,6 @@ def _one_backend(
         corr = spike_count_correlation(res["output_counts"], ref.output_counts)
     if res["network"] is not None and spec is not None:
         # the model ran another form of its network here (e.g. integrate-and-fire on a chip without leak): its own partition
-        from neurovpr.hardware.check import check_network
-
         network = res["network"]
         fit = check_network(network, spec, seed=seed, dt=None if fit is None else fit.spec.timing.time_step_ms)
         verdict = "fits" if fit.fits else f"does not fit ({len(fit.partition.violations)} limits broken)"
