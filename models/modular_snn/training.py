@@ -140,8 +140,8 @@ class TrainingSettings:
         p = self.params
         if self.simulate_rest:
             v_e, v_i = p.v_rest_e + _V_START_OFFSET, p.v_rest_i + _V_START_OFFSET
-            return build_module(p, seed=seed, name=name, v_init_e=v_e, v_init_i=v_i)
-        return build_module(p, seed=seed, name=name)
+            return build_module(p, seed=seed, name=name, v_init_e=v_e, v_init_i=v_i, dt=self.dt)
+        return build_module(p, seed=seed, name=name, dt=self.dt)
 
 
 def derive_seed(seed: int, *keys: int) -> int:

@@ -57,3 +57,31 @@ def test_the_inhibition_loop_has_no_delay_as_in_the_authors_code() -> None:
     assert net.projections["exc->inh"].synapse.delay == 0.0 and net.projections["lateral"].synapse.delay == 0.0
     stepped = build_module(ModuleParameters(n_neurons=4, delay_recurrent=0.1))
     assert not any(p.zero_delay for p in stepped.projections.values())
+
+
+def test_euler_conductances_decay_by_the_codes_factor_per_step() -> None:
+    """With ``euler_conductances`` a conductance falls by exactly ``1 - dt / tau`` per step (Brian2's Euler step in the code)."""
+    import neurovpr as nv
+    from neurovpr.models.modular_snn import ModuleParameters, build_module
+
+    dt = 0.1
+    params = ModuleParameters(n_input=1, n_neurons=1, euler_conductances=True, delay_min=0.1, delay_max=0.2)
+    net = build_module(params, seed=3, name="euler", dt=dt)
+    cell = net.populations["exc"].cell_type
+    assert np.exp(-dt / cell.tau_syn_E) == pytest.approx(1 - dt / params.tau_ge, rel=1e-12)
+    assert np.exp(-dt / cell.tau_syn_I) == pytest.approx(1 - dt / params.tau_gi, rel=1e-12)
+    sim = nv.compile(net, backend="reference", dt=dt, seed=0)
+    sim.plasticity(False)
+    sim.record("exc", "gsyn_exc")
+    sim.run(30.0, inputs={"pixels": 300.0})
+    g = sim.trace("exc", "gsyn_exc")[1][:, 0]
+    ratio = g[1:][g[:-1] > 0] / g[:-1][g[:-1] > 0]
+    # a step without an arrival decays by 0.9 exactly; one with an arrival ends higher
+    assert ratio.size > 50 and ratio.min() == pytest.approx(1 - dt / params.tau_ge, rel=1e-12)
+    assert np.count_nonzero(np.isclose(ratio, 0.9, rtol=1e-12, atol=0)) > 0.5 * ratio.size
+    with pytest.raises(nv.ValidationError, match="euler_conductances needs the time step"):
+        build_module(params)
+    with pytest.raises(nv.ValidationError, match=r"tau_gi = 0\.5 ms with euler_conductances needs a time step below it"):
+        build_module(params, dt=0.5)
+    exact = build_module(ModuleParameters(n_input=1, n_neurons=1)).populations["exc"].cell_type
+    assert exact.tau_syn_E == params.tau_ge and exact.tau_syn_I == params.tau_gi
