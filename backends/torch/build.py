@@ -39,9 +39,15 @@ FLUSH = 1e-18
 
 @dataclass
 class _Group:
+    """Consecutive populations of one membrane form (current or conductance), advanced by one set of tensor operations.
+
+    ``members`` are the populations' names and ``[lo, hi)`` columns; the parameters are
+    per neuron, so a population's arithmetic is the same alone or merged with others.
+    """
+
     lo: int
     hi: int
-    name: str
+    members: tuple[tuple[str, int, int], ...]
     conductance: bool
     calcium: bool
     p: dict[str, torch.Tensor]
@@ -98,7 +104,13 @@ class Compiled:
         def t(a: np.ndarray, kind: torch.dtype | None = None) -> torch.Tensor:
             return torch.as_tensor(np.ascontiguousarray(a), dtype=kind or dtype, device=device)
 
-        self.groups = [self._group(g, t) for g in layout.groups]
+        runs: list[list[NeuronGroup]] = []
+        for g in layout.groups:
+            if runs and runs[-1][-1].conductance == g.conductance and runs[-1][-1].hi == g.lo:
+                runs[-1].append(g)
+            else:
+                runs.append([g])
+        self.groups = [self._group(run, t) for run in runs]
         self.fan = {
             name: _Fan(
                 ptr=t(f.ptr[:-1], torch.int64),
@@ -119,13 +131,19 @@ class Compiled:
         self.ica_init = t(cat("i_ca_init"))
 
     @staticmethod
-    def _group(g: NeuronGroup, t) -> _Group:
-        p = {name: t(values) for name, values in g.params.items()}
-        p["i_offset_p20"] = t(g.params["i_offset"] * g.params["p20"])
-        if g.conductance:
-            p["gl_rest"] = t(g.params["gl"] * g.params["v_rest"])
-        total = t(g.params["refrac"] + g.params["lock"], torch.int32)
-        return _Group(lo=g.lo, hi=g.hi, name=g.name, conductance=g.conductance, calcium=g.calcium, p=p, refrac_total=total)
+    def _group(run: list[NeuronGroup], t) -> _Group:
+        keys = set.intersection(*(set(g.params) for g in run))
+        params = {key: np.concatenate([g.params[key] for g in run]) for key in keys}
+        p = {name: t(values) for name, values in params.items()}
+        p["i_offset_p20"] = t(params["i_offset"] * params["p20"])
+        conductance = run[0].conductance
+        if conductance:
+            p["gl_rest"] = t(params["gl"] * params["v_rest"])
+        total = t(params["refrac"] + params["lock"], torch.int32)
+        return _Group(
+            lo=run[0].lo, hi=run[-1].hi, members=tuple((g.name, g.lo, g.hi) for g in run), conductance=conductance,
+            calcium=any(g.calcium for g in run), p=p, refrac_total=total,
+        )  # fmt: skip
 
 
 class BatchState:
@@ -233,9 +251,11 @@ class BatchState:
         for g in self.net.groups:
             spikes = self._conductance(g) if g.conductance else self._current(g)
             self.counts[:, g.lo : g.hi] += spikes
-            item, neuron = torch.nonzero(spikes, as_tuple=True)
-            self.emit(g.name, item, neuron, j + 1)
-            out.append((g.name, spikes))
+            for name, lo, hi in g.members:
+                own = spikes[:, lo - g.lo : hi - g.lo]
+                item, neuron = torch.nonzero(own, as_tuple=True)
+                self.emit(name, item, neuron, j + 1)
+                out.append((name, own))
         return out
 
     def _current(self, g: _Group) -> torch.Tensor:
