@@ -3,8 +3,10 @@
 Evaluation shows every query image to every trained network with learning off; the
 images are independent, so ``Simulation.run_batch`` runs them as one batch. The reference
 backend runs a batch as the loop of run and reset; the torch backend simulates
-``--batch-size`` images at once as tensor steps. Both are timed in the same run on the
-same trained networks, and the ratio is printed.
+``--batch-size`` images at once as tensor steps, with eager neuron steps and with
+``fuse=True`` (each neuron step compiled by ``torch.compile``). All are timed in the same
+run on the same trained networks, after one untimed batch of the timed shape (compilation
+and first calls; its wall time is stored), and the ratios are printed.
 
 1. Modular SNN query phase, one module of the paper's size (784 inputs, 400 + 400
    neurons, 350 ms at dt 0.1 ms): one module is trained on the first 25 nordland64
@@ -52,12 +54,16 @@ def _machine() -> str:
     return f"{platform.machine()}, {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}"
 
 
-def _devices() -> list[tuple[str, str | None]]:
+def _torch_runs(batch_size: int) -> list[tuple[str, dict]]:
+    """The torch backend's runs: eager and fused (``fuse=True``) neuron steps, on the CPU and on CUDA (device None: absent)."""
     import torch
 
-    out: list[tuple[str, str | None]] = [("torch-cpu", "cpu")]
-    out.append(("torch-cuda", "cuda") if torch.cuda.is_available() else ("torch-cuda", None))
-    return out
+    cuda = "cuda" if torch.cuda.is_available() else None
+    return [
+        (f"torch-{name}{'-fused' if fuse else ''}", {"device": dev, "batch_size": batch_size, "fuse": fuse})
+        for name, dev in (("cpu", "cpu"), ("cuda", cuda))
+        for fuse in (False, True)
+    ]
 
 
 def _timed(fn, *args, **kwargs):
@@ -88,18 +94,21 @@ def modular(args: argparse.Namespace) -> dict:
     runs: dict[str, dict] = {}
     for label, backend, options in [
         ("reference", "reference", {}),
-        *[(lbl, "torch", {"device": dev, "batch_size": args.batch_size}) for lbl, dev in _devices()],
+        *[(lbl, "torch", o) for lbl, o in _torch_runs(args.batch_size)],
     ]:
         if backend == "torch" and options["device"] is None:
             runs[label] = {"measured": False, "note": "not measured: no CUDA device on this machine"}
             continue
         sim = nv.compile(static, backend=backend, dt=settings.dt, seed=2, **options)
         sim.plasticity(False)
+        # warm-up with one batch of the timed shape: numba's cache, torch's first calls, torch.compile's kernels
+        _, warm, _ = _timed(record_responses, Presenter(sim, settings), queries[: min(n_q, args.batch_size)])
+        sim.reset()
         with tqdm(total=n_q, desc=f"modular queries ({label})", unit="image", leave=False) as bar:
             counts, wall, cpu = _timed(record_responses, Presenter(sim, settings), queries, tick=bar.update)
         runs[label] = {
             "measured": True, "wall_s_per_module_image": wall / n_q, "cpu_s_per_module_image": cpu / n_q,
-            "mean_spikes_per_image": float(counts.sum(axis=1).mean()),
+            "mean_spikes_per_image": float(counts.sum(axis=1).mean()), "warm_up_wall_s": warm,
         }  # fmt: skip
         for places in (500, 2400):
             module_images = math.ceil(places / MODULE) * places
@@ -135,13 +144,13 @@ def locsnet(args: argparse.Namespace) -> dict:
     counts: dict[str, np.ndarray] = {}
     for label, backend, options in [
         ("reference", "reference", {}),
-        *[(lbl, "torch", {"device": dev, "batch_size": args.batch_size}) for lbl, dev in _devices()],
+        *[(lbl, "torch", o) for lbl, o in _torch_runs(args.batch_size)],
     ]:
         if backend == "torch" and options["device"] is None:
             runs[label] = {"measured": False, "note": "not measured: no CUDA device on this machine"}
             continue
         clf = SpikingClassifier(net, arch, spiking, backend=backend, **options)
-        clf.run(queries[:2])  # warm-up (numba's cache, torch's first calls)
+        clf.run(queries[: min(len(queries), args.batch_size)])  # warm-up: one batch of the timed shape
         out, wall, cpu = _timed(clf.run, queries, progress=True, desc=f"locsnet ({label})")
         counts[label] = out.counts
         runs[label] = {

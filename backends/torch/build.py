@@ -4,10 +4,9 @@ Order within step ``j`` (the reference backend's, backends/reference/kernels.py)
 
 1. sources emit their spikes stamped ``j`` into the delay ring;
 2. the ring's slot ``j`` is added to the synaptic currents/conductances and cleared;
-3. each population: exact propagation of the membrane over the step with the synaptic
-   state at its start, decay of the synaptic state, threshold, reset, refractoriness and
-   lockout (one step counter per neuron), the Ca2+ jump; its spikes are stamped ``j + 1``
-   and scheduled into the ring.
+3. each group of consecutive populations of one membrane form: one step of
+   :mod:`.neurons` (exact propagation, decays, threshold, reset, refractoriness and lockout,
+   the Ca2+ jump); each population's spikes are stamped ``j + 1`` and scheduled into the ring.
 
 A spike is scheduled by looking up its population's fan-out table
 (:class:`.translation.FanOut`) and adding every connection's weight at
@@ -29,12 +28,10 @@ import torch
 
 from neurovpr.resources import require_memory
 
+from .neurons import FLUSH, NeuronSteps
 from .translation import DenseBlock, Layout, NeuronGroup
 
 __all__ = ["Compiled", "BatchState", "Dense", "FLUSH"]
-
-#: Synaptic currents (nA) and conductances (uS) below this are set to 0, as the reference backend does.
-FLUSH = 1e-18
 
 
 @dataclass
@@ -93,10 +90,15 @@ class Compiled:
         ``(N,)`` adaptive thresholds (0 for neurons without one).
     device, dtype
         Where and in which precision the state is computed.
+    fuse
+        Fuse each neuron step into one kernel with ``torch.compile`` (:class:`.neurons.NeuronSteps`).
     """
 
-    def __init__(self, layout: Layout, theta: np.ndarray, *, device: torch.device, dtype: torch.dtype) -> None:
+    def __init__(
+        self, layout: Layout, theta: np.ndarray, *, device: torch.device, dtype: torch.dtype, fuse: bool = False
+    ) -> None:
         self.n = layout.n
+        self.steps = NeuronSteps(fuse)
         self.ring = layout.ring
         self.device = device
         self.dtype = dtype
@@ -259,52 +261,11 @@ class BatchState:
         return out
 
     def _current(self, g: _Group) -> torch.Tensor:
-        p, sl = g.p, slice(g.lo, g.hi)
+        sl = slice(g.lo, g.hi)
         v, ie, ii, ica, refr = self.v[:, sl], self.isyn[0, :, sl], self.isyn[1, :, sl], self.ica[:, sl], self.refr[:, sl]
-        rest = p["v_rest"]
-        moved = rest + (v - rest) * p["p22"] + ie * p["p21e"] - ii * p["p21i"] - ica * p["p21ca"] + p["i_offset"] * p["p20"]
-        held = refr > 0
-        v_new = torch.where(held, v, moved)
-        refr_new = refr - held.to(refr.dtype)
-        _decay(ie, p["p11e"])
-        _decay(ii, p["p11i"])
-        if g.calcium:
-            _decay(ica, p["p11ca"])
-        spikes = (v_new >= p["v_thresh"]) & (refr_new == 0)
-        self._after_spikes(g, sl, v_new, refr_new, spikes)
-        if g.calcium:
-            ica += spikes * p["i_alpha"]
-        return spikes
+        return self.net.steps.current(v, ie, ii, ica, refr, g.p, g.refrac_total, g.calcium)
 
     def _conductance(self, g: _Group) -> torch.Tensor:
-        p, sl = g.p, slice(g.lo, g.hi)
+        sl = slice(g.lo, g.hi)
         v, ie, ii, refr = self.v[:, sl], self.isyn[0, :, sl], self.isyn[1, :, sl], self.refr[:, sl]
-        rest = p["v_rest"]
-        held = refr > p["lock"]
-        # the same arithmetic, in the same order, as rest + (v - rest) * p22 + i_offset * p20 (leak),
-        # v_inf = (gl * rest + ge * e_rev_e + gi * e_rev_i + i_offset) / gt and
-        # v_inf + (v - v_inf) * exp(-dt * gt / cm) (moved), with fewer temporaries
-        leak = torch.sub(v, rest).mul_(p["p22"]).add_(rest).add_(p["i_offset_p20"])
-        ge = ie * p["fe"]
-        gi = ii * p["fi"]
-        gt = torch.add(p["gl"], ge).add_(gi)
-        v_inf = torch.add(p["gl_rest"], ge.mul_(p["e_rev_e"])).add_(gi.mul_(p["e_rev_i"])).add_(p["i_offset"]).div_(gt)
-        moved = torch.sub(v, v_inf).mul_(gt.mul_(-self.dt).div_(p["cm"]).exp_()).add_(v_inf)
-        free = torch.where((ie == 0.0) & (ii == 0.0), leak, moved)
-        v_new = torch.where(held, v, free)
-        refr_new = refr - (refr > 0).to(refr.dtype)
-        _decay(ie, p["p11e"])
-        _decay(ii, p["p11i"])
-        spikes = (v_new >= p["v_thresh"] + self.net.theta[sl]) & (refr_new == 0)
-        self._after_spikes(g, sl, v_new, refr_new, spikes)
-        return spikes
-
-    def _after_spikes(self, g: _Group, sl: slice, v_new: torch.Tensor, refr_new: torch.Tensor, spikes: torch.Tensor) -> None:
-        self.v[:, sl] = torch.where(spikes, g.p["v_reset"], v_new)
-        self.refr[:, sl] = torch.where(spikes, g.refrac_total, refr_new)
-
-
-def _decay(x: torch.Tensor, factor: torch.Tensor) -> None:
-    """``x *= factor`` in place, then values below :data:`FLUSH` in magnitude set to 0."""
-    x.mul_(factor)
-    x.masked_fill_(x.abs() < FLUSH, 0.0)
+        return self.net.steps.conductance(v, ie, ii, refr, self.net.theta[sl], g.p, g.refrac_total, self.dt)

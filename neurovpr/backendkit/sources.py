@@ -23,6 +23,10 @@ from .timing import grid_steps, window_steps
 
 __all__ = ["SourceState", "poisson_rng", "array_events"]
 
+#: Poisson neurons whose gaps are drawn together, and the most gaps drawn in one block.
+_CHUNK_NEURONS = 4096
+_MAX_DRAWS = 2**22
+
 
 def poisson_rng(population: Population, seed: int) -> np.random.Generator:
     """The generator of a Poisson population's spikes (independent of every connectivity stream)."""
@@ -84,8 +88,7 @@ class SourceState:
         spikes in one step appears once per spike, in stored order.
         """
         if self._poisson:
-            steps, neurons = np.nonzero(self.raster(first, n_steps))
-            return steps.astype(np.int64) + first, neurons.astype(np.int64)
+            return self._poisson_events(first, n_steps)
         sel = (self._stamps >= first) & (self._stamps < first + n_steps)
         return self._stamps[sel], self._neurons[sel]
 
@@ -94,12 +97,42 @@ class SourceState:
 
         Several array spikes of one neuron in one step count once here.
         """
-        if self._poisson:
-            draws = self._rng.random((n_steps, self._size))
-            j = first + np.arange(n_steps)
-            active = (j >= self._first) & (j < self._end)
-            return (draws < self._rates * (self._dt / 1000.0)) & active[:, None]
         out = np.zeros((n_steps, self._size), dtype=bool)
         steps, neurons = self.events(first, n_steps)
         out[steps - first, neurons] = True
         return out
+
+    def _poisson_events(self, first: int, n_steps: int) -> tuple[np.ndarray, np.ndarray]:
+        """Poisson spikes of steps ``first .. first + n_steps - 1``, sorted by step then neuron.
+
+        Each neuron's steps are Bernoulli trials with ``p = rate * dt / 1000``; the gaps between
+        its successes are geometric, so they are drawn directly (the work follows the spikes,
+        not steps x neurons): a neuron's gaps are drawn in blocks until its next spike falls
+        past the window.
+        """
+        lo, hi = max(first, self._first), min(first + n_steps, self._end)
+        p = np.clip(self._rates * (self._dt / 1000.0), 0.0, 1.0)
+        active = np.flatnonzero(p > 0)
+        if hi <= lo or active.size == 0:
+            return np.zeros(0, np.int64), np.zeros(0, np.int64)
+        n = hi - lo
+        steps_out, neurons_out = [], []
+        for start in range(0, active.size, _CHUNK_NEURONS):
+            who = active[start : start + _CHUNK_NEURONS]
+            last = np.full(who.size, -1, dtype=np.int64)  # each neuron's last spike so far (offset in the window)
+            todo = np.arange(who.size)
+            while todo.size:
+                q = p[who[todo]]
+                expect = float((q * (n - 1 - last[todo])).max())
+                block = max(4, min(int(expect + 4.0 * np.sqrt(expect) + 4.0), _MAX_DRAWS // todo.size or 1))
+                at = last[todo, None] + np.cumsum(self._rng.geometric(q[:, None], size=(todo.size, block)), axis=1)
+                inside = at < n
+                rows = np.nonzero(inside)[0]
+                steps_out.append(at[inside])
+                neurons_out.append(who[todo[rows]])
+                last[todo] = at[:, -1]
+                todo = todo[at[:, -1] < n - 1]
+        steps = np.concatenate(steps_out) + lo
+        neurons = np.concatenate(neurons_out).astype(np.int64)
+        order = np.lexsort((neurons, steps))
+        return steps[order], neurons[order]

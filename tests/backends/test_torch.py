@@ -14,6 +14,13 @@ pytest.importorskip("torch")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "runtime"))
 from batch_networks import array_items, conv_current, diehl_cook_like
 
+#: the networks of the equality tests: current-based with Ca2+ and convolutions; conductance-based, adaptive, with lockout
+_NETWORKS = pytest.mark.parametrize(
+    ("build", "source", "n_in"),
+    [(conv_current, "image", 72), (lambda: diehl_cook_like(poisson=False), "pixels", 30)],
+    ids=["conv-current-ca2", "conductance-adaptive-lockout"],
+)
+
 
 def _assert_same_spikes(a: nv.BatchResult, b: nv.BatchResult) -> None:
     assert a.counts.keys() == b.counts.keys()
@@ -24,11 +31,7 @@ def _assert_same_spikes(a: nv.BatchResult, b: nv.BatchResult) -> None:
             np.testing.assert_array_equal(ia, ib, err_msg=f"{name} item {k}")
 
 
-@pytest.mark.parametrize(
-    ("build", "source", "n_in"),
-    [(conv_current, "image", 72), (lambda: diehl_cook_like(poisson=False), "pixels", 30)],
-    ids=["conv-current-ca2", "conductance-adaptive-lockout"],
-)
+@_NETWORKS
 def test_spikes_equal_the_reference_backend_on_explicit_input_spikes(build, source: str, n_in: int) -> None:
     items = [{source: s} for s in array_items(5, n_in, duration=40.0, rate_hz=300.0, seed=1)]
     ref = nv.compile(build(), backend="reference", dt=0.1, seed=2)
@@ -63,6 +66,22 @@ def test_batch_equals_the_run_reset_loop_with_poisson_input() -> None:
     assert got.counts["exc"].sum() > 0
 
 
+@_NETWORKS
+def test_fused_neuron_steps_give_the_eager_spikes_and_membrane(build, source: str, n_in: int) -> None:
+    """``fuse=True`` (torch.compile, a C++ kernel on this CPU) gives the eager steps' spikes; membranes within 1e-9 mV."""
+    items = [{source: s} for s in array_items(4, n_in, duration=30.0, rate_hz=300.0, seed=3)]
+    runs = []
+    for fuse in (False, True):
+        sim = nv.compile(build(), backend="torch", dt=0.1, seed=2, batch_size=4, device="cpu", fuse=fuse)
+        sim.record(list(build().populations)[-1], "v")
+        runs.append(sim.run_batch(30.0, items, spike_trains=True))
+    eager, fused = runs
+    assert all(eager.counts[name].sum() > 0 for name in eager.counts)
+    _assert_same_spikes(eager, fused)
+    for key in eager.traces:
+        np.testing.assert_allclose(fused.traces[key], eager.traces[key], rtol=0, atol=1e-9)
+
+
 def test_float32_counts_stay_close_to_float64() -> None:
     items = [{"image": s} for s in array_items(3, 72, duration=30.0, rate_hz=300.0, seed=3)]
     exact = nv.compile(conv_current(), backend="torch", dt=0.1, seed=2).run_batch(30.0, items)
@@ -87,6 +106,8 @@ def test_options_and_refusals() -> None:
         nv.compile(conv_current(), backend="torch", dt=0.1, seed=1, dtype="float16")
     with pytest.raises(nv.ValidationError, match="batch_size"):
         nv.compile(conv_current(), backend="torch", dt=0.1, seed=1, batch_size=0)
+    with pytest.raises(nv.ValidationError, match="fuse must be true or false"):
+        nv.compile(conv_current(), backend="torch", dt=0.1, seed=1, fuse="yes")
     plastic = diehl_cook_like()
     proj = plastic.projections["pixels->exc"]
     plastic.replace_projection(proj.replace(synapse=nv.DiehlCookSTDP(weight=0.05)))
