@@ -26,7 +26,7 @@ and first calls; its wall time is stored), and the ratios are printed.
 
 Usage (from the repository root)::
 
-    python benchmarks/batched_eval.py [--queries 200] [--batch-size 256] [--locsnet-places 100] [--out reports/batched_eval]
+    python benchmarks/batched_eval.py [--queries 200] [--batch-size 256] [--threads 1] [--locsnet-places 100] [--out DIR]
 """
 
 from __future__ import annotations
@@ -54,13 +54,13 @@ def _machine() -> str:
     return f"{platform.machine()}, {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}"
 
 
-def _torch_runs(batch_size: int) -> list[tuple[str, dict]]:
+def _torch_runs(batch_size: int, threads: int = 1) -> list[tuple[str, dict]]:
     """The torch backend's runs: eager and fused (``fuse=True``) neuron steps, on the CPU and on CUDA (device None: absent)."""
     import torch
 
     cuda = "cuda" if torch.cuda.is_available() else None
     return [
-        (f"torch-{name}{'-fused' if fuse else ''}", {"device": dev, "batch_size": batch_size, "fuse": fuse})
+        (f"torch-{name}{'-fused' if fuse else ''}", {"device": dev, "batch_size": batch_size, "fuse": fuse, "threads": threads})
         for name, dev in (("cpu", "cpu"), ("cuda", cuda))
         for fuse in (False, True)
     ]
@@ -94,7 +94,7 @@ def modular(args: argparse.Namespace) -> dict:
     runs: dict[str, dict] = {}
     for label, backend, options in [
         ("reference", "reference", {}),
-        *[(lbl, "torch", o) for lbl, o in _torch_runs(args.batch_size)],
+        *[(lbl, "torch", o) for lbl, o in _torch_runs(args.batch_size, args.threads)],
     ]:
         if backend == "torch" and options["device"] is None:
             runs[label] = {"measured": False, "note": "not measured: no CUDA device on this machine"}
@@ -144,7 +144,7 @@ def locsnet(args: argparse.Namespace) -> dict:
     counts: dict[str, np.ndarray] = {}
     for label, backend, options in [
         ("reference", "reference", {}),
-        *[(lbl, "torch", o) for lbl, o in _torch_runs(args.batch_size)],
+        *[(lbl, "torch", o) for lbl, o in _torch_runs(args.batch_size, args.threads)],
     ]:
         if backend == "torch" and options["device"] is None:
             runs[label] = {"measured": False, "note": "not measured: no CUDA device on this machine"}
@@ -182,6 +182,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--queries", type=int, default=200, help="query images through the module")
     p.add_argument("--epochs", type=int, default=1, help="training epochs of the module")
     p.add_argument("--batch-size", type=int, default=256, help="items the torch backend simulates at once")
+    p.add_argument("--threads", type=int, default=1, help="the torch backend's CPU threads (its option threads)")
     p.add_argument("--locsnet-places", type=int, default=100)
     p.add_argument("--locsnet-epochs", type=int, default=5)
     p.add_argument("--skip", default="", help="comma-separated parts to skip: modular, locsnet")
@@ -189,7 +190,7 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     skip = {s for s in args.skip.split(",") if s}
     print(f"machine: {_machine()}", flush=True)
-    record: dict = {"machine": _machine(), "batch_size": args.batch_size}
+    record: dict = {"machine": _machine(), "batch_size": args.batch_size, "torch_threads": args.threads}
     if "modular" not in skip:
         record["modular_snn"] = modular(args)
     if "locsnet" not in skip:
