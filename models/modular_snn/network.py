@@ -83,6 +83,8 @@ INPUT, EXC, INH = "pixels", "exc", "inh"
 INPUT_PROJECTION = f"{INPUT}->{EXC}"
 
 _STDP_FORMS = ("code", "paper")
+#: Parameters added after the first saved runs; :meth:`ModuleParameters.as_dict` leaves them out when off.
+_LATER_SWITCHES = ("euler_conductances",)
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -174,8 +176,18 @@ class ModuleParameters:
         return dataclasses.replace(self, **changes)
 
     def as_dict(self) -> dict[str, Any]:
-        """A JSON-ready copy of every parameter."""
-        return dataclasses.asdict(self)
+        """A JSON-ready copy of every parameter.
+
+        Switches added after runs were first saved (:data:`_LATER_SWITCHES`) are written only
+        when on: the settings of a run, and so the fingerprints that let it resume and be
+        evaluated, stay what they were before the switch existed (:meth:`from_dict` gives an
+        absent switch its default).
+        """
+        out = dataclasses.asdict(self)
+        for name in _LATER_SWITCHES:
+            if not out[name]:
+                del out[name]
+        return out
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> ModuleParameters:

@@ -85,3 +85,15 @@ def test_euler_conductances_decay_by_the_codes_factor_per_step() -> None:
         build_module(params, dt=0.5)
     exact = build_module(ModuleParameters(n_input=1, n_neurons=1)).populations["exc"].cell_type
     assert exact.tau_syn_E == params.tau_ge and exact.tau_syn_I == params.tau_gi
+
+
+def test_settings_of_runs_saved_before_euler_conductances_are_unchanged() -> None:
+    """The switch is written only when on, so earlier runs keep their fingerprints (resume, evaluation)."""
+    from neurovpr.models.modular_snn import ModuleParameters, TrainingSettings
+
+    plain = TrainingSettings().as_dict()
+    assert "euler_conductances" not in plain["params"]
+    assert TrainingSettings.from_dict(plain) == TrainingSettings()
+    on = TrainingSettings(params=ModuleParameters(euler_conductances=True))
+    assert on.as_dict()["params"]["euler_conductances"] is True
+    assert TrainingSettings.from_dict(on.as_dict()) == on
