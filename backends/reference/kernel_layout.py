@@ -120,8 +120,11 @@ Traces = namedtuple(
     "xpost1 xpost2 x_pre",
 )
 #: Spike sources: Poisson neurons (index, log(1 - p), next spike step, window) and their
-#: generator; the spike array events (steps, neurons) and the next one to emit.
-Sources = namedtuple("Sources", "pois_idx pois_logq pois_next pois_start pois_end arr_step arr_neuron arr_ptr rng")
+#: generator; the spike array events (steps, neurons) and the next one to emit; the float
+#: loop's heap of the Poisson sources by next step (steps, sources, size) and room for the due ones.
+Sources = namedtuple(
+    "Sources", "pois_idx pois_logq pois_next pois_start pois_end arr_step arr_neuron arr_ptr rng queue_t queue_k queue_n due"
+)
 #: Recorded state variables: neuron, variable code (``VAR_*``), and the output rows per step.
 VarRecord = namedtuple("VarRecord", "idx code out")
 

@@ -78,7 +78,7 @@ from .kernel_layout import (
 )
 from .kernel_neurons import update_cond, update_curr
 from .kernel_plasticity import arrive, decay_post_traces, post_traces, potentiate
-from .kernel_sources import geometric_gap
+from .kernel_sources import geometric_gap, queue_build, queue_due, queue_push
 
 #: The modules whose code the compiled entry points below are made of (numba caches them
 #: under a hash of all these files).
@@ -105,7 +105,16 @@ def _step_loop(stamp: int) -> Callable[..., int]:
         groups, params, v, isyn, ie, ii = neurons.groups, neurons.params, neurons.v, neurons.isyn, neurons.ie, neurons.ii
         theta, ica, refr, flag, flag_words = neurons.theta, neurons.ica, neurons.refr, neurons.flag, neurons.flag_words
         counts = neurons.counts
-        pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng = sources
+        pois_idx, pois_logq, pois_next, pois_start, pois_end = (
+            sources.pois_idx,
+            sources.pois_logq,
+            sources.pois_next,
+            sources.pois_start,
+            sources.pois_end,
+        )
+        arr_step, arr_neuron, arr_ptr, rng = sources.arr_step, sources.arr_neuron, sources.arr_ptr, sources.rng
+        queue_t, queue_k, queue_n, due = sources.queue_t, sources.queue_k, sources.queue_n, sources.due
+        queue_build(pois_next, queue_t, queue_k, queue_n)
         ev, ev_n, rec_n = arrivals.ev, arrivals.ev_n, record.n
         ring = ev_n.size
         n = v.size
@@ -116,17 +125,20 @@ def _step_loop(stamp: int) -> Callable[..., int]:
                 return j
             slot = j % ring
             after = later_slot(slot, 1, ring)  # the slot of step j + 1
-            # 1. sources
-            for k in range(pois_idx.size):
+            # 1. sources: the Poisson ones due now (or, after a window change or a redraw, before), by index
+            for d in range(queue_due(j, queue_t, queue_k, queue_n, due)):
+                k = due[d]
                 if pois_next[k] == j:
                     i = pois_idx[k]
                     if pois_start[k] <= j < pois_end[k]:
                         emit(i, j, slot, width, counts, stats, record, static, arrivals, conv, syn)
                     g = geometric_gap(rng, pois_logq[k])
                     pois_next[k] = NEVER if g == NEVER else j + 1 + g
-                elif pois_next[k] < j:  # window change or redraw in the past: draw forward
+                else:  # due in the past (window change or redraw): draw forward
                     g = geometric_gap(rng, pois_logq[k])
                     pois_next[k] = NEVER if g == NEVER else j + g
+                if pois_next[k] != NEVER:
+                    queue_push(queue_t, queue_k, queue_n, pois_next[k], k)
             while arr_ptr[0] < arr_step.size and arr_step[arr_ptr[0]] <= j:
                 if arr_step[arr_ptr[0]] == j:
                     emit(arr_neuron[arr_ptr[0]], j, slot, width, counts, stats, record, static, arrivals, conv, syn)

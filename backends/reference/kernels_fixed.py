@@ -216,16 +216,17 @@ def _emit(i, stamp, counts, stats, record, syn, acc, acc_max):
 @njit
 def _sources(j, sources, counts, stats, record, syn, acc, acc_max):
     """Emit the Poisson and array spikes of step ``j`` (the draws of :func:`.kernels.run_steps`) through :func:`_emit`."""
-    pois_idx, pois_logq, pois_next, pois_start, pois_end, arr_step, arr_neuron, arr_ptr, rng = sources
-    for k in range(pois_idx.size):
-        if pois_next[k] == j:
-            if pois_start[k] <= j < pois_end[k]:
-                _emit(pois_idx[k], j, counts, stats, record, syn, acc, acc_max)
-            g = geometric_gap(rng, pois_logq[k])
-            pois_next[k] = NEVER if g == NEVER else j + 1 + g
-        elif pois_next[k] < j:
-            g = geometric_gap(rng, pois_logq[k])
-            pois_next[k] = NEVER if g == NEVER else j + g
+    nxt, rng = sources.pois_next, sources.rng
+    for k in range(nxt.size):
+        if nxt[k] == j:
+            if sources.pois_start[k] <= j < sources.pois_end[k]:
+                _emit(sources.pois_idx[k], j, counts, stats, record, syn, acc, acc_max)
+            g = geometric_gap(rng, sources.pois_logq[k])
+            nxt[k] = NEVER if g == NEVER else j + 1 + g
+        elif nxt[k] < j:
+            g = geometric_gap(rng, sources.pois_logq[k])
+            nxt[k] = NEVER if g == NEVER else j + g
+    arr_step, arr_neuron, arr_ptr = sources.arr_step, sources.arr_neuron, sources.arr_ptr
     while arr_ptr[0] < arr_step.size and arr_step[arr_ptr[0]] <= j:
         if arr_step[arr_ptr[0]] == j:
             _emit(arr_neuron[arr_ptr[0]], j, counts, stats, record, syn, acc, acc_max)

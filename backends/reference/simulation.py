@@ -91,6 +91,9 @@ class ReferenceSimulation(Simulation):
                 self._arrays[name] = cell
         self._pois_logq = np.zeros(self._pois_idx.size)
         self._pois_next = np.zeros(self._pois_idx.size, dtype=np.int64)
+        # the float loop's heap of Poisson sources by next step (rebuilt from _pois_next at every call)
+        self._queue = (np.zeros(self._pois_idx.size, np.int64), np.zeros(self._pois_idx.size, np.int64),
+                       np.zeros(1, np.int64), np.zeros(self._pois_idx.size, np.int64))  # fmt: skip
         self._update_rates()
         self._stats = np.zeros(5, dtype=np.int64)
         self._recorders: dict[tuple[str, str], list[np.ndarray]] = {}
@@ -259,7 +262,7 @@ class ReferenceSimulation(Simulation):
         """The spike sources' arrays, as the compiled loops take them."""
         return kl.Sources(
             self._pois_idx, self._pois_logq, self._pois_next, self._pois_start, self._pois_end, self._arr_step,
-            self._arr_neuron, self._arr_ptr, self._rng,
+            self._arr_neuron, self._arr_ptr, self._rng, *self._queue,
         )  # fmt: skip
 
     def _spike_record(self) -> kl.SpikeRecord:
