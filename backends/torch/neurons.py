@@ -7,7 +7,8 @@ of the membrane with the synaptic state at the start of the step, decay of the s
 state (values below :data:`FLUSH` set to 0, as the reference backend does), threshold,
 reset, refractoriness and lockout (one step counter per neuron), the Ca2+ jump.
 
-:class:`NeuronSteps` holds the functions a simulation calls: these, or the same functions
+:func:`deliver_rows` is the source drive's delivery of scattered synapses (:mod:`.drive`), the
+other per-element loop of a step. :class:`NeuronSteps` holds the functions a simulation calls: these, or the same functions
 compiled by ``torch.compile`` (TorchInductor: the tens of element-wise operations of a step
 fused into one loop over the state, a C++ kernel on a CPU and a Triton kernel on a GPU). The
 arithmetic is the same; a compiled kernel may contract a multiplication and an addition into
@@ -90,6 +91,13 @@ def conductance_step(
     return spikes.to(refr.dtype)
 
 
+def deliver_rows(flat: torch.Tensor, offset: torch.Tensor, weight: torch.Tensor, who: torch.Tensor, at: torch.Tensor) -> None:
+    """Add row ``who[s]`` of ``weight`` at ``at[s] + offset[who[s]]`` of ``flat`` for every spike ``s``, in order."""
+    index = offset[who]
+    index += at[:, None]
+    flat.index_add_(0, index.view(-1), weight[who].view(-1))
+
+
 class NeuronSteps:
     """The neuron steps a simulation calls: eager, or fused by ``torch.compile`` when ``fuse``.
 
@@ -103,9 +111,15 @@ class NeuronSteps:
         self.fuse = fuse
         self._current: Callable[..., torch.Tensor] = current_step
         self._conductance: Callable[..., torch.Tensor] = conductance_step
+        self._deliver: Callable[..., None] = deliver_rows
         if fuse:
             self._current = torch.compile(current_step, dynamic=False)
             self._conductance = torch.compile(conductance_step, dynamic=False)
+            self._deliver = torch.compile(deliver_rows, dynamic=False)
+
+    def deliver(self, *args: object) -> None:
+        """:func:`deliver_rows` (the source drive's scattered synapses), fused when asked (one loop, no temporaries)."""
+        self._call(self._deliver, args)
 
     def current(self, *args: object) -> torch.Tensor:
         """:func:`current_step`, fused when asked."""
@@ -116,11 +130,11 @@ class NeuronSteps:
         return self._call(self._conductance, args)
 
     @staticmethod
-    def _call(fn: Callable[..., torch.Tensor], args: tuple[object, ...]) -> torch.Tensor:
+    def _call(fn: Callable[..., torch.Tensor | None], args: tuple[object, ...]) -> torch.Tensor | None:
         try:
             return fn(*args)
         except Exception as exc:  # torch.compile wraps compiler failures in several exception types
-            if fn in (current_step, conductance_step):
+            if fn in (current_step, conductance_step, deliver_rows):
                 raise
             cause = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise BackendUnavailableError(
