@@ -91,11 +91,12 @@ class Compiled:
     device, dtype
         Where and in which precision the state is computed.
     fuse
-        Fuse each neuron step into one kernel with ``torch.compile`` (:class:`.neurons.NeuronSteps`).
+        Fuse the per-element loops with ``torch.compile``: always, never, or (``None``) for large
+        batches (:class:`.neurons.NeuronSteps`).
     """
 
     def __init__(
-        self, layout: Layout, theta: np.ndarray, *, device: torch.device, dtype: torch.dtype, fuse: bool = False
+        self, layout: Layout, theta: np.ndarray, *, device: torch.device, dtype: torch.dtype, fuse: bool | None = False
     ) -> None:
         self.n = layout.n
         self.steps = NeuronSteps(fuse)

@@ -189,15 +189,15 @@ class SourceDrive:
     def _scatter(self, flat: torch.Tensor, pad: _Padded, base: np.ndarray, neurons: np.ndarray) -> None:
         """``index_add_`` every connection of the given spikes into the window (at most :data:`_PAIRS` at a time).
 
-        ``flat`` is the window and one last element. With the network's fused kernels
-        (``fuse=True``) every call has the same shape: the last group of spikes is padded
+        ``flat`` is the window and one last element. When the network's loops run fused
+        (:class:`.neurons.NeuronSteps`) every call has the same shape: the last group of spikes is padded
         with the tables' zero row aimed at that last element.
         """
         dev = self.net.device
         kind = torch.int32 if flat.numel() < 2**31 else torch.int64  # half the index traffic where it fits
         offset = pad.offsets(self.width, kind)
         step = max(1, _PAIRS // max(pad.degree, 1))
-        fused = self.net.steps.fuse
+        fused = self.net.steps.fused
         for k in range(0, base.size, step):
             at = base[k : k + step] * self.width
             who = neurons[k : k + step]

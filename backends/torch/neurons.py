@@ -18,13 +18,14 @@ from the eager one in the last bit, as the eager one differs from the reference 
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Callable
 
 import torch
 
 from neurovpr.errors import BackendUnavailableError
 
-__all__ = ["FLUSH", "NeuronSteps", "conductance_step", "current_step"]
+__all__ = ["AUTO_FUSE_WORK", "FLUSH", "NeuronSteps", "conductance_step", "current_step", "deliver_rows"]
 
 #: Synaptic currents (nA) and conductances (uS) below this are set to 0, as the reference backend does.
 FLUSH = 1e-18
@@ -98,45 +99,67 @@ def deliver_rows(flat: torch.Tensor, offset: torch.Tensor, weight: torch.Tensor,
     flat.index_add_(0, index.view(-1), weight[who].view(-1))
 
 
-class NeuronSteps:
-    """The neuron steps a simulation calls: eager, or fused by ``torch.compile`` when ``fuse``.
+#: With ``fuse=None`` (automatic) a batch is run fused when its neurons x steps reach this:
+#: compiling takes seconds once per shape and process, and pays off from about there on.
+AUTO_FUSE_WORK = 10**8
 
-    Compilation happens at the first call with a new batch shape (seconds to tens of
-    seconds; TorchInductor caches kernels on disk across processes). A failure to compile
-    (for example no C++ compiler for the CPU kernel) is raised as a
-    :class:`~neurovpr.errors.BackendUnavailableError` naming the cause.
+_EAGER = {"current": current_step, "conductance": conductance_step, "deliver": deliver_rows}
+_LABEL = {"current": "current-based neuron step", "conductance": "conductance-based neuron step",
+          "deliver": "source drive's delivery"}  # fmt: skip
+
+
+class NeuronSteps:
+    """The per-element loops a simulation calls: eager, or fused by ``torch.compile``.
+
+    ``fuse``: ``True`` always fused, ``False`` never, ``None`` (automatic) fused for the
+    batches the simulation marks as large (:meth:`choose`, :data:`AUTO_FUSE_WORK`).
+    Compilation happens at the first fused call with a new shape (seconds to tens of seconds;
+    TorchInductor caches kernels on disk across processes). When it fails (for example no C++
+    compiler for the CPU kernel), ``fuse=True`` raises a
+    :class:`~neurovpr.errors.BackendUnavailableError` naming the cause; the automatic choice
+    warns once and goes on eagerly, with the same results.
     """
 
-    def __init__(self, fuse: bool) -> None:
+    def __init__(self, fuse: bool | None) -> None:
         self.fuse = fuse
-        self._current: Callable[..., torch.Tensor] = current_step
-        self._conductance: Callable[..., torch.Tensor] = conductance_step
-        self._deliver: Callable[..., None] = deliver_rows
-        if fuse:
-            self._current = torch.compile(current_step, dynamic=False)
-            self._conductance = torch.compile(conductance_step, dynamic=False)
-            self._deliver = torch.compile(deliver_rows, dynamic=False)
+        self.fused = bool(fuse)
+        self._compiled: dict[str, Callable[..., torch.Tensor | None]] = {}
+        self._failed = False
+
+    def choose(self, work: int) -> None:
+        """Run fused or eagerly from now on, for a batch of ``work`` neurons x steps."""
+        self.fused = self.fuse if self.fuse is not None else (work >= AUTO_FUSE_WORK and not self._failed)
 
     def deliver(self, *args: object) -> None:
-        """:func:`deliver_rows` (the source drive's scattered synapses), fused when asked (one loop, no temporaries)."""
-        self._call(self._deliver, args)
+        """:func:`deliver_rows` (the source drive's scattered synapses), fused when chosen (one loop, no temporaries)."""
+        self._call("deliver", args)
 
     def current(self, *args: object) -> torch.Tensor:
-        """:func:`current_step`, fused when asked."""
-        return self._call(self._current, args)
+        """:func:`current_step`, fused when chosen."""
+        return self._call("current", args)
 
     def conductance(self, *args: object) -> torch.Tensor:
-        """:func:`conductance_step`, fused when asked."""
-        return self._call(self._conductance, args)
+        """:func:`conductance_step`, fused when chosen."""
+        return self._call("conductance", args)
 
-    @staticmethod
-    def _call(fn: Callable[..., torch.Tensor | None], args: tuple[object, ...]) -> torch.Tensor | None:
+    def _call(self, name: str, args: tuple[object, ...]) -> torch.Tensor | None:
+        if not self.fused:
+            return _EAGER[name](*args)
+        fn = self._compiled.get(name)
+        if fn is None:
+            fn = self._compiled[name] = torch.compile(_EAGER[name], dynamic=False)
         try:
             return fn(*args)
         except Exception as exc:  # torch.compile wraps compiler failures in several exception types
-            if fn in (current_step, conductance_step, deliver_rows):
-                raise
             cause = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            raise BackendUnavailableError(
-                f"torch backend: fuse=True could not compile the neuron step ({cause[:200]}); use fuse=False."
-            ) from exc
+            if self.fuse:
+                raise BackendUnavailableError(
+                    f"torch backend: fuse=True could not compile the {_LABEL[name]} ({cause[:200]}); use fuse=False."
+                ) from exc
+            warnings.warn(
+                f"torch backend: could not compile the {_LABEL[name]} ({cause[:200]}); running without fuse.",
+                RuntimeWarning,
+                stacklevel=3,
+            )
+            self._failed, self.fused = True, False
+            return _EAGER[name](*args)
