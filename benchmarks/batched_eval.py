@@ -3,10 +3,9 @@
 Evaluation shows every query image to every trained network with learning off; the
 images are independent, so ``Simulation.run_batch`` runs them as one batch. The reference
 backend runs a batch as the loop of run and reset; the torch backend simulates
-``--batch-size`` images at once as tensor steps, with eager neuron steps and with
-``fuse=True`` (each neuron step compiled by ``torch.compile``). All are timed in the same
-run on the same trained networks, after one untimed batch of the timed shape (compilation
-and first calls; its wall time is stored), and the ratios are printed.
+``--batch-size`` images at once as tensor steps. All are timed in the same run on the
+same trained networks, after one untimed batch of the timed shape (numba's cache, torch's
+first calls; its wall time is stored), and the ratios are printed.
 
 1. Modular SNN query phase, one module of the paper's size (784 inputs, 400 + 400
    neurons, 350 ms at dt 0.1 ms): one module is trained on the first 25 nordland64
@@ -55,14 +54,13 @@ def _machine() -> str:
 
 
 def _torch_runs(batch_size: int, threads: int = 1) -> list[tuple[str, dict]]:
-    """The torch backend's runs: eager and fused (``fuse=True``) neuron steps, on the CPU and on CUDA (device None: absent)."""
+    """The torch backend's runs: on the CPU and on CUDA (device None: absent)."""
     import torch
 
     cuda = "cuda" if torch.cuda.is_available() else None
     return [
-        (f"torch-{name}{'-fused' if fuse else ''}", {"device": dev, "batch_size": batch_size, "fuse": fuse, "threads": threads})
+        (f"torch-{name}", {"device": dev, "batch_size": batch_size, "threads": threads})
         for name, dev in (("cpu", "cpu"), ("cuda", cuda))
-        for fuse in (False, True)
     ]
 
 
@@ -101,7 +99,7 @@ def modular(args: argparse.Namespace) -> dict:
             continue
         sim = nv.compile(static, backend=backend, dt=settings.dt, seed=2, **options)
         sim.plasticity(False)
-        # warm-up with one batch of the timed shape: numba's cache, torch's first calls, torch.compile's kernels
+        # warm-up with one batch of the timed shape: numba's cache, torch's first calls
         _, warm, _ = _timed(record_responses, Presenter(sim, settings), queries[: min(n_q, args.batch_size)])
         sim.reset()
         with tqdm(total=n_q, desc=f"modular queries ({label})", unit="image", leave=False) as bar:

@@ -27,14 +27,6 @@ Options of ``nv.compile(..., backend="torch", ...)``:
 - ``threads``: torch's intra-op CPU threads while this simulation runs (default 1: the
   per-step tensors are small, and on a shared or busy CPU more threads mostly wait for each
   other); ``None`` leaves torch's setting.
-- ``fuse``: ``True`` compiles the per-element loops of a step (the neuron step, the source
-  drive's scattered delivery) with ``torch.compile`` into one kernel each (:mod:`.neurons`;
-  the first batch of each shape waits for the compiler, seconds to tens of seconds, cached on
-  disk); ``False`` runs them as separate tensor operations; ``None`` (default) fuses a batch
-  whose neurons x steps reach 1e8 (a Modular SNN module's batch of 100 images: 2.8e8), where
-  compiling pays off, and goes on eagerly with a warning if compiling fails. Fused and eager
-  give the same spikes in the tests; a fused state can differ in the last bit (contracted
-  multiply-adds, the kernel's own ``exp``), as the eager one can from the reference backend's.
 
 Importing this package does not import torch.
 """
@@ -63,7 +55,7 @@ class TorchBackend(Backend):
     version_of = "torch"
     extra = "torch"
     capabilities = CAPABILITIES
-    options = MappingProxyType({"device": None, "dtype": "float64", "batch_size": 256, "threads": 1, "fuse": None})
+    options = MappingProxyType({"device": None, "dtype": "float64", "batch_size": 256, "threads": 1})
 
     def _compile(self, network: Network, *, dt: float, seed: int, hardware: HardwareTarget | None, **options: Any) -> Simulation:
         # torch is imported when a network is compiled, not with the declaration

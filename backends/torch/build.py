@@ -28,7 +28,7 @@ import torch
 
 from neurovpr.resources import require_memory
 
-from .neurons import FLUSH, NeuronSteps
+from .neurons import FLUSH, conductance_step, current_step
 from .translation import DenseBlock, Layout, NeuronGroup
 
 __all__ = ["Compiled", "BatchState", "Dense", "FLUSH"]
@@ -90,16 +90,10 @@ class Compiled:
         ``(N,)`` adaptive thresholds (0 for neurons without one).
     device, dtype
         Where and in which precision the state is computed.
-    fuse
-        Fuse the per-element loops with ``torch.compile``: always, never, or (``None``) for large
-        batches (:class:`.neurons.NeuronSteps`).
     """
 
-    def __init__(
-        self, layout: Layout, theta: np.ndarray, *, device: torch.device, dtype: torch.dtype, fuse: bool | None = False
-    ) -> None:
+    def __init__(self, layout: Layout, theta: np.ndarray, *, device: torch.device, dtype: torch.dtype) -> None:
         self.n = layout.n
-        self.steps = NeuronSteps(fuse)
         self.ring = layout.ring
         self.device = device
         self.dtype = dtype
@@ -264,9 +258,9 @@ class BatchState:
     def _current(self, g: _Group) -> torch.Tensor:
         sl = slice(g.lo, g.hi)
         v, ie, ii, ica, refr = self.v[:, sl], self.isyn[0, :, sl], self.isyn[1, :, sl], self.ica[:, sl], self.refr[:, sl]
-        return self.net.steps.current(v, ie, ii, ica, refr, g.p, g.refrac_total, g.calcium)
+        return current_step(v, ie, ii, ica, refr, g.p, g.refrac_total, g.calcium)
 
     def _conductance(self, g: _Group) -> torch.Tensor:
         sl = slice(g.lo, g.hi)
         v, ie, ii, refr = self.v[:, sl], self.isyn[0, :, sl], self.isyn[1, :, sl], self.refr[:, sl]
-        return self.net.steps.conductance(v, ie, ii, refr, self.net.theta[sl], g.p, g.refrac_total, self.dt)
+        return conductance_step(v, ie, ii, refr, self.net.theta[sl], g.p, g.refrac_total, self.dt)

@@ -50,11 +50,9 @@ class _Padded:
         col = torch.zeros_like(conn)
         for receptor, (lo, start) in columns.items():
             col = torch.where(fan.receptor[conn] == receptor, fan.post[conn] - lo + start, col)
-        # one more row, all zeros: the padding of a fused delivery (see SourceDrive._scatter)
-        self.weight = _zero_row(torch.where(valid, fan.weight[conn], 0.0))
-        self.col = _zero_row(torch.where(valid, col, 0))
-        self.delay = _zero_row(torch.where(valid, fan.delay[conn], 0))
-        self.pad_row = int(fan.deg.numel())
+        self.weight = torch.where(valid, fan.weight[conn], 0.0)
+        self.col = torch.where(valid, col, 0)
+        self.delay = torch.where(valid, fan.delay[conn], 0)
         self.degree = degree
         self.deg = fan.deg.cpu().numpy()
         self.offset: torch.Tensor | None = None
@@ -162,9 +160,8 @@ class SourceDrive:
         its own rows, and a chunk's spikes are delivered item after item (cache locality).
         """
         size, b = self.chunk + self.reach, self.batch
-        if self._window is None:  # one more element at the end: where a fused delivery's padding adds its zeros
-            self._flat = torch.zeros(b * size * self.width + 1, dtype=self.net.dtype, device=self.net.device)
-            self._window = self._flat[:-1].view(b, size, self.width)
+        if self._window is None:
+            self._window = torch.zeros((b, size, self.width), dtype=self.net.dtype, device=self.net.device)
         else:  # arrivals of earlier chunks' spikes that are still to come move to the front
             keep = size - (start - self._start)
             self._window[:, :keep] = self._window[:, size - keep :].clone()
@@ -184,34 +181,20 @@ class SourceDrive:
                 col = span[2] + block.lo - span[0]
                 window[:, :, col : col + block.hi - block.lo] += product.view(b, size, -1)
             if name in self.whole:
-                self._scatter(self._flat, self.padded[name], base, who)
+                self._scatter(window.view(-1), self.padded[name], base, who)
 
     def _scatter(self, flat: torch.Tensor, pad: _Padded, base: np.ndarray, neurons: np.ndarray) -> None:
-        """``index_add_`` every connection of the given spikes into the window (at most :data:`_PAIRS` at a time).
-
-        ``flat`` is the window and one last element. When the network's loops run fused
-        (:class:`.neurons.NeuronSteps`) every call has the same shape: the last group of spikes is padded
-        with the tables' zero row aimed at that last element.
-        """
+        """``index_add_`` every connection of the given spikes into the window (at most :data:`_PAIRS` at a time)."""
         dev = self.net.device
         kind = torch.int32 if flat.numel() < 2**31 else torch.int64  # half the index traffic where it fits
         offset = pad.offsets(self.width, kind)
         step = max(1, _PAIRS // max(pad.degree, 1))
-        fused = self.net.steps.fused
         for k in range(0, base.size, step):
-            at = base[k : k + step] * self.width
-            who = neurons[k : k + step]
-            if fused and at.size < step:
-                at = np.concatenate([at, np.full(step - at.size, flat.numel() - 1, dtype=at.dtype)])
-                who = np.concatenate([who, np.full(step - who.size, pad.pad_row, dtype=who.dtype)])
-            self.net.steps.deliver(
-                flat, offset, pad.weight, torch.as_tensor(who, device=dev), torch.as_tensor(at, device=dev, dtype=kind)
-            )
-
-
-def _zero_row(table: torch.Tensor) -> torch.Tensor:
-    """``table`` with one more row of zeros."""
-    return torch.cat([table, table.new_zeros((1, table.shape[1]))])
+            at = torch.as_tensor(base[k : k + step] * self.width, device=dev, dtype=kind)
+            who = torch.as_tensor(neurons[k : k + step], device=dev)
+            index = offset[who]
+            index += at[:, None]
+            flat.index_add_(0, index.view(-1), pad.weight[who].view(-1))
 
 
 def _union(span: tuple[int, int] | None, lo: int, hi: int) -> tuple[int, int]:

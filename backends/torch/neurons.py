@@ -2,30 +2,17 @@
 
 Each function advances the ``(batch, neurons)`` state of one group of neurons (their
 parameters per neuron) over one step, in place, and returns the spikes (0/1, in the dtype
-of the step counters: a compiled kernel stores them much faster than booleans): exact propagation
+of the step counters): exact propagation
 of the membrane with the synaptic state at the start of the step, decay of the synaptic
 state (values below :data:`FLUSH` set to 0, as the reference backend does), threshold,
 reset, refractoriness and lockout (one step counter per neuron), the Ca2+ jump.
-
-:func:`deliver_rows` is the source drive's delivery of scattered synapses (:mod:`.drive`), the
-other per-element loop of a step. :class:`NeuronSteps` holds the functions a simulation calls: these, or the same functions
-compiled by ``torch.compile`` (TorchInductor: the tens of element-wise operations of a step
-fused into one loop over the state, a C++ kernel on a CPU and a Triton kernel on a GPU). The
-arithmetic is the same; a compiled kernel may contract a multiplication and an addition into
-one rounding (FMA) and computes ``exp`` with its own vector routine, so its state can differ
-from the eager one in the last bit, as the eager one differs from the reference backend's.
 """
 
 from __future__ import annotations
 
-import warnings
-from collections.abc import Callable
-
 import torch
 
-from neurovpr.errors import BackendUnavailableError
-
-__all__ = ["AUTO_FUSE_WORK", "FLUSH", "NeuronSteps", "conductance_step", "current_step", "deliver_rows"]
+__all__ = ["FLUSH", "conductance_step", "current_step"]
 
 #: Synaptic currents (nA) and conductances (uS) below this are set to 0, as the reference backend does.
 FLUSH = 1e-18
@@ -90,76 +77,3 @@ def conductance_step(
     spikes = (v_new >= p["v_thresh"] + theta) & (refr_new == 0)
     _after_spikes(v, refr, v_new, refr_new, spikes, p["v_reset"], refrac_total)
     return spikes.to(refr.dtype)
-
-
-def deliver_rows(flat: torch.Tensor, offset: torch.Tensor, weight: torch.Tensor, who: torch.Tensor, at: torch.Tensor) -> None:
-    """Add row ``who[s]`` of ``weight`` at ``at[s] + offset[who[s]]`` of ``flat`` for every spike ``s``, in order."""
-    index = offset[who]
-    index += at[:, None]
-    flat.index_add_(0, index.view(-1), weight[who].view(-1))
-
-
-#: With ``fuse=None`` (automatic) a batch is run fused when its neurons x steps reach this:
-#: compiling takes seconds once per shape and process, and pays off from about there on.
-AUTO_FUSE_WORK = 10**8
-
-_EAGER = {"current": current_step, "conductance": conductance_step, "deliver": deliver_rows}
-_LABEL = {"current": "current-based neuron step", "conductance": "conductance-based neuron step",
-          "deliver": "source drive's delivery"}  # fmt: skip
-
-
-class NeuronSteps:
-    """The per-element loops a simulation calls: eager, or fused by ``torch.compile``.
-
-    ``fuse``: ``True`` always fused, ``False`` never, ``None`` (automatic) fused for the
-    batches the simulation marks as large (:meth:`choose`, :data:`AUTO_FUSE_WORK`).
-    Compilation happens at the first fused call with a new shape (seconds to tens of seconds;
-    TorchInductor caches kernels on disk across processes). When it fails (for example no C++
-    compiler for the CPU kernel), ``fuse=True`` raises a
-    :class:`~neurovpr.errors.BackendUnavailableError` naming the cause; the automatic choice
-    warns once and goes on eagerly, with the same results.
-    """
-
-    def __init__(self, fuse: bool | None) -> None:
-        self.fuse = fuse
-        self.fused = bool(fuse)
-        self._compiled: dict[str, Callable[..., torch.Tensor | None]] = {}
-        self._failed = False
-
-    def choose(self, work: int) -> None:
-        """Run fused or eagerly from now on, for a batch of ``work`` neurons x steps."""
-        self.fused = self.fuse if self.fuse is not None else (work >= AUTO_FUSE_WORK and not self._failed)
-
-    def deliver(self, *args: object) -> None:
-        """:func:`deliver_rows` (the source drive's scattered synapses), fused when chosen (one loop, no temporaries)."""
-        self._call("deliver", args)
-
-    def current(self, *args: object) -> torch.Tensor:
-        """:func:`current_step`, fused when chosen."""
-        return self._call("current", args)
-
-    def conductance(self, *args: object) -> torch.Tensor:
-        """:func:`conductance_step`, fused when chosen."""
-        return self._call("conductance", args)
-
-    def _call(self, name: str, args: tuple[object, ...]) -> torch.Tensor | None:
-        if not self.fused:
-            return _EAGER[name](*args)
-        fn = self._compiled.get(name)
-        if fn is None:
-            fn = self._compiled[name] = torch.compile(_EAGER[name], dynamic=False)
-        try:
-            return fn(*args)
-        except Exception as exc:  # torch.compile wraps compiler failures in several exception types
-            cause = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-            if self.fuse:
-                raise BackendUnavailableError(
-                    f"torch backend: fuse=True could not compile the {_LABEL[name]} ({cause[:200]}); use fuse=False."
-                ) from exc
-            warnings.warn(
-                f"torch backend: could not compile the {_LABEL[name]} ({cause[:200]}); running without fuse.",
-                RuntimeWarning,
-                stacklevel=3,
-            )
-            self._failed, self.fused = True, False
-            return _EAGER[name](*args)

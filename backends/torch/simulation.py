@@ -88,7 +88,6 @@ class TorchSimulation(HostedSimulation):
         dtype: str = "float64",
         batch_size: int = 256,
         threads: int | None = 1,
-        fuse: bool | None = None,
     ) -> None:
         super().__init__(network, backend="torch", dt=dt, seed=seed, hardware=hardware)
         if dtype not in _DTYPES:
@@ -101,9 +100,6 @@ class TorchSimulation(HostedSimulation):
         if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1):
             raise ValidationError(f"torch backend: threads must be an integer >= 1 or None, got {threads!r}.")
         self._threads = None if threads is None else int(threads)
-        if fuse is not None and not isinstance(fuse, bool):
-            raise ValidationError(f"torch backend: fuse must be true, false or None (automatic), got {fuse!r}.")
-        self._fuse = fuse
         self._plastic = False  # inference only: weights and thresholds are fixed
         self._theta = np.zeros(0)
         self._state: BatchState | None = None
@@ -130,7 +126,7 @@ class TorchSimulation(HostedSimulation):
             )
         self._theta = np.concatenate(theta)
         self._offsets = {g.name: (g.lo, g.hi) for g in layout.groups}
-        self._net = Compiled(layout, self._theta, device=self._device, dtype=self._dtype, fuse=self._fuse)
+        self._net = Compiled(layout, self._theta, device=self._device, dtype=self._dtype)
         self._state = None
         self._build_ns += time.perf_counter_ns() - started
 
@@ -181,7 +177,6 @@ class TorchSimulation(HostedSimulation):
             raster[steps - first, neurons] = True
             self._record.add(name, raster, first, source=True)
         recorded = [key for key in self._recording if key[0] in self._offsets]
-        self._net.steps.choose(n_steps * self._net.n)
         drive = SourceDrive(self._net, events, 1, first, n_steps)
         spikes, traces = self._drive(self._state, drive, events, keep_spikes=True, recorded=recorded)
         for name in self._neuron_pops:
@@ -215,7 +210,6 @@ class TorchSimulation(HostedSimulation):
             chunk = items[lo : lo + self._batch_size]
             size = len(chunk)
             events = self._batch_events(chunk, n_steps)
-            self._net.steps.choose(size * n_steps * self._net.n)
             drive = SourceDrive(self._net, events, size, 0, n_steps)
             state = BatchState(self._net, size, self._dt, lead=_LEAD, extra_bytes=drive.bytes)
             spikes, volts = self._drive(state, drive, events, keep_spikes=spike_trains, recorded=recorded)

@@ -66,22 +66,6 @@ def test_batch_equals_the_run_reset_loop_with_poisson_input() -> None:
     assert got.counts["exc"].sum() > 0
 
 
-@_NETWORKS
-def test_fused_neuron_steps_give_the_eager_spikes_and_membrane(build, source: str, n_in: int) -> None:
-    """``fuse=True`` (torch.compile, a C++ kernel on this CPU) gives the eager steps' spikes; membranes within 1e-9 mV."""
-    items = [{source: s} for s in array_items(4, n_in, duration=30.0, rate_hz=300.0, seed=3)]
-    runs = []
-    for fuse in (False, True):
-        sim = nv.compile(build(), backend="torch", dt=0.1, seed=2, batch_size=4, device="cpu", fuse=fuse)
-        sim.record(list(build().populations)[-1], "v")
-        runs.append(sim.run_batch(30.0, items, spike_trains=True))
-    eager, fused = runs
-    assert all(eager.counts[name].sum() > 0 for name in eager.counts)
-    _assert_same_spikes(eager, fused)
-    for key in eager.traces:
-        np.testing.assert_allclose(fused.traces[key], eager.traces[key], rtol=0, atol=1e-9)
-
-
 def test_float32_counts_stay_close_to_float64() -> None:
     items = [{"image": s} for s in array_items(3, 72, duration=30.0, rate_hz=300.0, seed=3)]
     exact = nv.compile(conv_current(), backend="torch", dt=0.1, seed=2).run_batch(30.0, items)
@@ -106,8 +90,6 @@ def test_options_and_refusals() -> None:
         nv.compile(conv_current(), backend="torch", dt=0.1, seed=1, dtype="float16")
     with pytest.raises(nv.ValidationError, match="batch_size"):
         nv.compile(conv_current(), backend="torch", dt=0.1, seed=1, batch_size=0)
-    with pytest.raises(nv.ValidationError, match="fuse must be true, false or None"):
-        nv.compile(conv_current(), backend="torch", dt=0.1, seed=1, fuse="yes")
     plastic = diehl_cook_like()
     proj = plastic.projections["pixels->exc"]
     plastic.replace_projection(proj.replace(synapse=nv.DiehlCookSTDP(weight=0.05)))
@@ -175,36 +157,3 @@ def test_source_drive_equals_the_reference_in_batches_and_across_runs(
     for name in ("exc", "inh"):
         np.testing.assert_array_equal(sim.spike_counts(name), ref.spike_counts(name))
         np.testing.assert_array_equal(sim.spike_counts(name), expected.counts[name][1])
-
-
-def test_automatic_fuse_choice_and_a_compiler_failure(monkeypatch: pytest.MonkeyPatch) -> None:
-    """``fuse=None`` fuses only large batches; a compiler failure is a warning there, an error with ``fuse=True``."""
-    import torch
-
-    from neurovpr.backends.torch import neurons
-
-    steps = neurons.NeuronSteps(None)
-    steps.choose(neurons.AUTO_FUSE_WORK - 1)
-    assert not steps.fused
-    steps.choose(neurons.AUTO_FUSE_WORK)
-    assert steps.fused
-
-    def broken(fn, **kwargs):
-        def call(*args):
-            raise RuntimeError("no compiler here")
-
-        return call
-
-    monkeypatch.setattr(torch, "compile", broken)
-    monkeypatch.setattr(neurons, "AUTO_FUSE_WORK", 1)  # every batch counts as large
-    items = [{"pixels": s} for s in array_items(3, 30, duration=20.0, rate_hz=300.0, seed=5)]
-    eager = nv.compile(diehl_cook_like(poisson=False), backend="torch", dt=0.1, seed=2, fuse=False).run_batch(20.0, items)
-    auto = nv.compile(diehl_cook_like(poisson=False), backend="torch", dt=0.1, seed=2)
-    warned = r"could not compile the source drive's delivery \(no compiler here\); running without fuse"
-    with pytest.warns(RuntimeWarning, match=warned):
-        got = auto.run_batch(20.0, items)
-    for name in eager.counts:
-        np.testing.assert_array_equal(got.counts[name], eager.counts[name])
-    forced = nv.compile(diehl_cook_like(poisson=False), backend="torch", dt=0.1, seed=2, fuse=True)
-    with pytest.raises(nv.BackendUnavailableError, match=r"fuse=True could not compile the .* \(no compiler here\); use fuse="):
-        forced.run_batch(20.0, items)
