@@ -1,9 +1,8 @@
 """One step of the neurons of a batch: the membrane forms of docs/semantics.md as tensor operations.
 
 Each function advances the ``(batch, neurons)`` state of one group of neurons (their
-parameters per neuron) over one step, in place, and returns the spikes (0/1, in the dtype
-of the step counters): exact propagation
-of the membrane with the synaptic state at the start of the step, decay of the synaptic
+parameters per neuron) over one step, in place, and returns its spikes (boolean): exact
+propagation of the membrane with the synaptic state at the start of the step, decay of the synaptic
 state (values below :data:`FLUSH` set to 0, as the reference backend does), threshold,
 reset, refractoriness and lockout (one step counter per neuron), the Ca2+ jump.
 """
@@ -50,7 +49,7 @@ def current_step(
     _after_spikes(v, refr, v_new, refr_new, spikes, p["v_reset"], refrac_total)
     if calcium:
         ica += spikes * p["i_alpha"]
-    return spikes.to(refr.dtype)
+    return spikes
 
 
 def conductance_step(
@@ -69,11 +68,11 @@ def conductance_step(
     gt = torch.add(p["gl"], ge).add_(gi)
     v_inf = torch.add(p["gl_rest"], ge.mul_(p["e_rev_e"])).add_(gi.mul_(p["e_rev_i"])).add_(p["i_offset"]).div_(gt)
     moved = torch.sub(v, v_inf).mul_(gt.mul_(-dt).div_(p["cm"]).exp_()).add_(v_inf)
-    free = torch.where(ie == 0.0, torch.where(ii == 0.0, leak, moved), moved)
+    free = torch.where((ie == 0.0) & (ii == 0.0), leak, moved)
     v_new = torch.where(held, v, free)
     refr_new = refr - (refr > 0).to(refr.dtype)
     _decay(ie, p["p11e"])
     _decay(ii, p["p11i"])
     spikes = (v_new >= p["v_thresh"] + theta) & (refr_new == 0)
     _after_spikes(v, refr, v_new, refr_new, spikes, p["v_reset"], refrac_total)
-    return spikes.to(refr.dtype)
+    return spikes

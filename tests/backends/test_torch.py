@@ -14,13 +14,6 @@ pytest.importorskip("torch")
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "runtime"))
 from batch_networks import array_items, conv_current, diehl_cook_like
 
-#: the networks of the equality tests: current-based with Ca2+ and convolutions; conductance-based, adaptive, with lockout
-_NETWORKS = pytest.mark.parametrize(
-    ("build", "source", "n_in"),
-    [(conv_current, "image", 72), (lambda: diehl_cook_like(poisson=False), "pixels", 30)],
-    ids=["conv-current-ca2", "conductance-adaptive-lockout"],
-)
-
 
 def _assert_same_spikes(a: nv.BatchResult, b: nv.BatchResult) -> None:
     assert a.counts.keys() == b.counts.keys()
@@ -31,7 +24,11 @@ def _assert_same_spikes(a: nv.BatchResult, b: nv.BatchResult) -> None:
             np.testing.assert_array_equal(ia, ib, err_msg=f"{name} item {k}")
 
 
-@_NETWORKS
+@pytest.mark.parametrize(
+    ("build", "source", "n_in"),
+    [(conv_current, "image", 72), (lambda: diehl_cook_like(poisson=False), "pixels", 30)],
+    ids=["conv-current-ca2", "conductance-adaptive-lockout"],
+)
 def test_spikes_equal_the_reference_backend_on_explicit_input_spikes(build, source: str, n_in: int) -> None:
     items = [{source: s} for s in array_items(5, n_in, duration=40.0, rate_hz=300.0, seed=1)]
     ref = nv.compile(build(), backend="reference", dt=0.1, seed=2)
