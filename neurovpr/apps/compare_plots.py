@@ -12,7 +12,7 @@ from neurovpr.errors import ValidationError
 from neurovpr.fileio import save_figure
 
 if TYPE_CHECKING:
-    from neurovpr.apps.compare import Comparison
+    from neurovpr.apps.compare_result import Comparison
 
 __all__ = ["plot_comparison", "place_confusion", "plot_place_confusion"]
 
