@@ -16,10 +16,14 @@ synaptic events (each spike times its neuron's number of outgoing connections) a
 plastic updates (each spike's arrivals on plastic connections plus each postsynaptic
 spike times its number of incoming plastic connections; the reference backend leaves
 out updates whose trace is exactly zero, so this is an upper bound on its count).
+Like the backend kit's, it also reports ``run_wall_ns`` (wall time inside the simulator's
+``run``) and ``build_wall_ns`` (building the network, and tearing it down and building it
+again at every ``reset()``), so that a benchmark can tell simulating from rebuilding.
 """
 
 from __future__ import annotations
 
+import time
 import weakref
 from typing import Any
 
@@ -96,6 +100,8 @@ class PyNNSimulation(Simulation):
         self._offset = time_offset(simulator, dt)
         self._late_spikes = 0
         self._done = {"steps": 0, "neuron_updates": 0, "spikes": 0, "synaptic_events": 0, "plastic_updates": 0}
+        # wall time in the simulator's run and in (re)building the network, as the backend kit reports them
+        self._done.update(run_wall_ns=0, build_wall_ns=0)
         self._n_neurons = sum(p.size for p in self._network.populations.values() if not p.is_source)
         self._degrees = self._connection_degrees()
         weights = {name: conns.weight.copy() for name, conns in self._plan.connections.items()}
@@ -136,6 +142,7 @@ class PyNNSimulation(Simulation):
         if previous is not None and previous is not self:
             previous.close()
         setattr(state, _OWNER, weakref.ref(self))
+        started = time.perf_counter_ns()
         self._built: Built = build_network(self._sim, self._simulator, self._plan, weights, threads=self._threads)
         self._steps = 0
         self._first_run = True
@@ -145,6 +152,7 @@ class PyNNSimulation(Simulation):
             self._record_from[(pop, var)] = 0
         if not self._plastic:
             self._apply_plasticity(False)
+        self._done["build_wall_ns"] += time.perf_counter_ns() - started
 
     # -- Simulation hooks ----------------------------------------------------
     @property
@@ -165,6 +173,7 @@ class PyNNSimulation(Simulation):
         self._check_live()
         for name in self._sources:
             self._feed_source(name, self._steps, n_steps)
+        started = time.perf_counter_ns()
         with quiet():
             if self._simulator == "nest" and self._first_run:
                 # pre-roll: PyNN's first run simulates one step more, reaching the offset
@@ -174,6 +183,7 @@ class PyNNSimulation(Simulation):
                 self._sim.run((n_steps + 1) * self._dt)
             else:
                 self._sim.run(n_steps * self._dt)
+        self._done["run_wall_ns"] += time.perf_counter_ns() - started
         self._steps += n_steps
         self._done["steps"] += n_steps
         self._done["neuron_updates"] += n_steps * self._n_neurons
@@ -232,8 +242,10 @@ class PyNNSimulation(Simulation):
         for key, value in self._live_statistics().items():
             self._done[key] += value
         weights = {name: self._weights(name) for name in self._network.projections}
+        started = time.perf_counter_ns()
         with quiet():
             self._sim.end()
+        self._done["build_wall_ns"] += time.perf_counter_ns() - started  # tearing down is part of the rebuild
         self._build(weights)
 
     def _set_plasticity(self, on: bool) -> None:
