@@ -8,7 +8,9 @@ time. Compiling a second one takes PyNN over: the first keeps what it had record
 state object, the global it guards.
 
 ``reset()`` rebuilds the network (PyNN's own ``reset`` cannot clear NEST's spikes
-in flight and restores Brian2's initial weights), carrying the current weights over.
+in flight and restores Brian2's initial weights), carrying the current weights over:
+those it was built or last set with, read back from the simulator only after a run with
+plasticity on in a network with plastic projections (the only way they can move there).
 
 ``statistics()`` counts from the recorded spikes, as the reference backend defines the
 counts: steps, neuron updates (steps x non-source neurons), spikes of every population,
@@ -105,7 +107,9 @@ class PyNNSimulation(Simulation):
         self._n_neurons = sum(p.size for p in self._network.populations.values() if not p.is_source)
         self._degrees = self._connection_degrees()
         weights = {name: conns.weight.copy() for name, conns in self._plan.connections.items()}
-        self._build(weights)
+        #: plastic projections: a run with plasticity on may change their weights in the simulator
+        self._has_plastic = any(part.synapse.kind == "STDPMechanism" for part in self._plan.parts)
+        self._build(weights, check=True)
 
     # -- ownership of PyNN's global state ----------------------------------
     def _state(self) -> Any:
@@ -135,7 +139,11 @@ class PyNNSimulation(Simulation):
         with quiet():
             self._sim.end()
 
-    def _build(self, weights: dict[str, np.ndarray]) -> None:
+    def _build(self, weights: dict[str, np.ndarray], *, check: bool) -> None:
+        """Build the network with these IR weights; ``check``: verify the connections PyNN made (the first build).
+
+        A rebuild makes the same PyNN calls with the same lists, so it is not checked again.
+        """
         state = self._state()
         owner = getattr(state, _OWNER, None)
         previous = owner() if owner is not None else None
@@ -143,7 +151,11 @@ class PyNNSimulation(Simulation):
             previous.close()
         setattr(state, _OWNER, weakref.ref(self))
         started = time.perf_counter_ns()
-        self._built: Built = build_network(self._sim, self._simulator, self._plan, weights, threads=self._threads)
+        self._built: Built = build_network(
+            self._sim, self._simulator, self._plan, weights, threads=self._threads, check=check
+        )
+        #: the IR weights the simulator holds, while they are known without reading them back
+        self._held: dict[str, np.ndarray] | None = weights
         self._steps = 0
         self._first_run = True
         self._cache.clear()
@@ -184,6 +196,8 @@ class PyNNSimulation(Simulation):
             else:
                 self._sim.run(n_steps * self._dt)
         self._done["run_wall_ns"] += time.perf_counter_ns() - started
+        if self._plastic and self._has_plastic:
+            self._held = None
         self._steps += n_steps
         self._done["steps"] += n_steps
         self._done["neuron_updates"] += n_steps * self._n_neurons
@@ -241,12 +255,13 @@ class PyNNSimulation(Simulation):
         self._check_live()
         for key, value in self._live_statistics().items():
             self._done[key] += value
-        weights = {name: self._weights(name) for name in self._network.projections}
+        # the weights carry over: those the network was built or set with, unless learning may have moved them
+        weights = self._held if self._held is not None else {name: self._weights(name) for name in self._network.projections}
         started = time.perf_counter_ns()
         with quiet():
             self._sim.end()
         self._done["build_wall_ns"] += time.perf_counter_ns() - started  # tearing down is part of the rebuild
-        self._build(weights)
+        self._build(weights, check=False)
 
     def _set_plasticity(self, on: bool) -> None:
         self._check_live()
@@ -406,6 +421,8 @@ class PyNNSimulation(Simulation):
 
     def _set_weights(self, projection: str, values: np.ndarray) -> None:
         self._check_live()
+        if self._held is not None:
+            self._held = {**self._held, projection: np.array(values, dtype=np.float64)}
         for k in self._plan.parts_of[projection]:
             part = self._built.parts[k]
             pynn = to_pynn_weights(part.plan.mode, values)
