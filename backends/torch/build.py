@@ -26,12 +26,12 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from neurovpr.resources import require_memory
+from neurovpr.resources import ResourceLimitError, format_bytes, require_memory
 
 from .neurons import FLUSH, conductance_step, current_step
 from .translation import DenseBlock, Layout, NeuronGroup
 
-__all__ = ["Compiled", "BatchState", "Dense", "FLUSH"]
+__all__ = ["Compiled", "BatchState", "Dense", "FLUSH", "require_device_memory"]
 
 
 @dataclass
@@ -143,6 +143,15 @@ class Compiled:
         )  # fmt: skip
 
 
+def require_device_memory(nbytes: float, free: float, what: str, device: torch.device) -> None:
+    """Refuse, in one sentence, a batch whose state needs more than the ``free`` bytes of ``device``'s memory."""
+    if not nbytes <= free:
+        raise ResourceLimitError(
+            f"{what} needs about {format_bytes(nbytes)} of memory on {device}, which has {format_bytes(free)} free "
+            "(lower the compile option batch_size)."
+        )
+
+
 class BatchState:
     """The dynamic state of ``batch`` items of a :class:`Compiled` network, from the reset state.
 
@@ -166,8 +175,12 @@ class BatchState:
         width = 8 if dtype == torch.float64 else 4
         # delay ring, v, isyn, ica, refr, counts; extra_bytes: the caller's (the source drive)
         need = batch * n * (2 * self.ring * width + 4 * width + 4 + 8) + extra_bytes
-        require_memory(need, f"torch backend: a batch of {batch} items of {n} neurons with a {self.ring}-step delay ring",
-                       " (lower the compile option batch_size)")  # fmt: skip
+        what = f"torch backend: a batch of {batch} items of {n} neurons with a {self.ring}-step delay ring"
+        if dev.type == "cuda":  # the state lives in the device's memory
+            free, _ = torch.cuda.mem_get_info(dev)
+            require_device_memory(need, free, what, dev)
+        else:
+            require_memory(need, what, " (lower the compile option batch_size)")
         self.v = net.v_init.expand(batch, n).clone()
         self.isyn = torch.zeros((2, batch, n), dtype=dtype, device=dev)
         self.ica = net.ica_init.expand(batch, n).clone()
