@@ -25,7 +25,8 @@ first calls; its wall time is stored), and the ratios are printed.
 
 Usage (from the repository root)::
 
-    python benchmarks/batched_eval.py [--queries 200] [--batch-size 256] [--threads 1] [--locsnet-places 100] [--out DIR]
+    python benchmarks/batched_eval.py [--queries 200] [--batch-size 256] [--threads 1] [--dtypes float64,float32]
+                                      [--locsnet-places 100] [--out DIR]
 """
 
 from __future__ import annotations
@@ -53,15 +54,21 @@ def _machine() -> str:
     return f"{platform.machine()}, {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}"
 
 
-def _torch_runs(batch_size: int, threads: int = 1) -> list[tuple[str, dict]]:
-    """The torch backend's runs: on the CPU and on CUDA (device None: absent)."""
+def _torch_runs(batch_size: int, threads: int = 1, dtypes: tuple[str, ...] = ("float64",)) -> list[tuple[str, dict]]:
+    """The torch backend's runs: on the CPU and on CUDA (device None: absent), in each of ``dtypes``.
+
+    The first dtype's runs are labelled ``torch-cpu`` / ``torch-cuda``, the others get the
+    dtype appended (``torch-cpu-float32``).
+    """
     import torch
 
     cuda = "cuda" if torch.cuda.is_available() else None
     return [
-        (f"torch-{name}", {"device": dev, "batch_size": batch_size, "threads": threads})
+        (f"torch-{name}" + ("" if k == 0 else f"-{dtype}"),
+         {"device": dev, "batch_size": batch_size, "threads": threads, "dtype": dtype})
+        for k, dtype in enumerate(dtypes)
         for name, dev in (("cpu", "cpu"), ("cuda", cuda))
-    ]
+    ]  # fmt: skip
 
 
 def _timed(fn, *args, **kwargs):
@@ -92,7 +99,7 @@ def modular(args: argparse.Namespace) -> dict:
     runs: dict[str, dict] = {}
     for label, backend, options in [
         ("reference", "reference", {}),
-        *[(lbl, "torch", o) for lbl, o in _torch_runs(args.batch_size, args.threads)],
+        *[(lbl, "torch", o) for lbl, o in _torch_runs(args.batch_size, args.threads, args.dtypes)],
     ]:
         if backend == "torch" and options["device"] is None:
             runs[label] = {"measured": False, "note": "not measured: no CUDA device on this machine"}
@@ -142,7 +149,7 @@ def locsnet(args: argparse.Namespace) -> dict:
     counts: dict[str, np.ndarray] = {}
     for label, backend, options in [
         ("reference", "reference", {}),
-        *[(lbl, "torch", o) for lbl, o in _torch_runs(args.batch_size, args.threads)],
+        *[(lbl, "torch", o) for lbl, o in _torch_runs(args.batch_size, args.threads, args.dtypes)],
     ]:
         if backend == "torch" and options["device"] is None:
             runs[label] = {"measured": False, "note": "not measured: no CUDA device on this machine"}
@@ -181,14 +188,19 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--epochs", type=int, default=1, help="training epochs of the module")
     p.add_argument("--batch-size", type=int, default=256, help="items the torch backend simulates at once")
     p.add_argument("--threads", type=int, default=1, help="the torch backend's CPU threads (its option threads)")
+    p.add_argument("--dtypes", default="float64", help="the torch backend's dtypes to time, comma-separated (float64, float32)")
     p.add_argument("--locsnet-places", type=int, default=100)
     p.add_argument("--locsnet-epochs", type=int, default=5)
     p.add_argument("--skip", default="", help="comma-separated parts to skip: modular, locsnet")
     p.add_argument("--out", type=Path, default=Path("reports/batched_eval"))
     args = p.parse_args(argv)
     skip = {s for s in args.skip.split(",") if s}
+    args.dtypes = tuple(d for d in args.dtypes.split(",") if d)
+    if not args.dtypes or any(d not in ("float64", "float32") for d in args.dtypes):
+        p.error(f"--dtypes: float64 and/or float32, got {','.join(args.dtypes) or 'nothing'}")
     print(f"machine: {_machine()}", flush=True)
     record: dict = {"machine": _machine(), "batch_size": args.batch_size, "torch_threads": args.threads}
+    record["torch_dtypes"] = list(args.dtypes)
     if "modular" not in skip:
         record["modular_snn"] = modular(args)
     if "locsnet" not in skip:
