@@ -290,6 +290,25 @@ def test_nest_stdp_pair_and_deferred_potentiation() -> None:
     assert frozen.weights("plastic", format="list")[0] == 0.5
 
 
+def test_nest_reset_carries_learned_and_set_weights_over() -> None:
+    """reset() keeps what learning changed (read back from NEST) and what set_weights wrote (without reading back)."""
+    _needs(NEST)
+    sim = NEST.compile(_pair_network([10.0, 30.0], [20.0]), dt=0.1, seed=1)
+    sim.run(40.0)
+    learned = sim.weights("plastic", format="list")
+    assert learned[0] != 0.5  # potentiated by the pair
+    sim.reset()
+    np.testing.assert_array_equal(sim.weights("plastic", format="list"), learned)
+    sim.plasticity(False)
+    sim.set_weights("plastic", [0.3])
+    sim.run(40.0)
+    sim.reset()
+    assert sim.weights("plastic", format="list").tolist() == [0.3]
+    sim.run(40.0)
+    assert sim.weights("plastic", format="list").tolist() == [0.3] and sim.spike_counts("post").sum() == 1
+    sim.close()
+
+
 def test_one_live_pynn_simulation_per_process() -> None:
     """A second compile takes PyNN over; the first keeps its results readable and refuses to run."""
     _needs(NEST)
