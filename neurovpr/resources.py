@@ -160,13 +160,14 @@ def format_bytes(n: float) -> str:
     return f"{n:.1f} EiB"  # pragma: no cover
 
 
-def require_memory(nbytes: float, what: str, detail: str = "") -> None:
+def require_memory(nbytes: float, what: str, detail: str = "", *, limit: tuple[float, str] | None = None) -> None:
     """Refuse when ``what`` needs more than the memory limit.
 
     ``what`` names the object and the value, e.g. ``"reading 'x.mat' (1e11 values)"``;
     the sentence reads ``"<what> needs about X of memory<detail>; the limit is Y (...)."``.
+    ``limit`` is ``(bytes, where it comes from)`` when not the process's limit (e.g. a GPU's free memory).
     """
-    limit, source = memory_limit()
+    limit, source = memory_limit() if limit is None else limit
     if not nbytes <= limit:  # also refuses NaN
         raise ResourceLimitError(
             f"{what} needs about {format_bytes(nbytes)} of memory{detail}; the limit is {format_bytes(limit)} ({source})."

@@ -26,12 +26,12 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-from neurovpr.resources import ResourceLimitError, format_bytes, require_memory
+from neurovpr.resources import require_memory
 
 from .neurons import FLUSH, conductance_step, current_step
 from .translation import DenseBlock, Layout, NeuronGroup
 
-__all__ = ["Compiled", "BatchState", "Dense", "FLUSH", "require_device_memory"]
+__all__ = ["Compiled", "BatchState", "Dense", "FLUSH"]
 
 
 @dataclass
@@ -143,15 +143,6 @@ class Compiled:
         )  # fmt: skip
 
 
-def require_device_memory(nbytes: float, free: float, what: str, device: torch.device) -> None:
-    """Refuse, in one sentence, a batch whose state needs more than the ``free`` bytes of ``device``'s memory."""
-    if not nbytes <= free:
-        raise ResourceLimitError(
-            f"{what} needs about {format_bytes(nbytes)} of memory on {device}, which has {format_bytes(free)} free "
-            "(lower the compile option batch_size)."
-        )
-
-
 class BatchState:
     """The dynamic state of ``batch`` items of a :class:`Compiled` network, from the reset state.
 
@@ -178,7 +169,7 @@ class BatchState:
         what = f"torch backend: a batch of {batch} items of {n} neurons with a {self.ring}-step delay ring"
         if dev.type == "cuda":  # the state lives in the device's memory
             free, _ = torch.cuda.mem_get_info(dev)
-            require_device_memory(need, free, what, dev)
+            require_memory(need, what, f" on {dev} (lower the compile option batch_size)", limit=(free, f"free on {dev}"))
         else:
             require_memory(need, what, " (lower the compile option batch_size)")
         self.v = net.v_init.expand(batch, n).clone()

@@ -106,13 +106,12 @@ def test_a_batch_too_large_for_the_memory_limit_is_refused_before_allocation(mon
 
 def test_a_batch_larger_than_the_free_device_memory_is_refused_in_one_sentence() -> None:
     """On CUDA the batch's state is checked against the device's free memory (``torch.cuda.mem_get_info``)."""
-    import torch
+    from neurovpr.resources import require_memory
 
-    from neurovpr.backends.torch.build import require_device_memory
-
-    require_device_memory(2**30, 2**31, "a batch", torch.device("cuda:0"))  # fits: nothing raised
+    detail = " on cuda:0 (lower the compile option batch_size)"
+    require_memory(2**30, "a batch", detail, limit=(2**31, "free on cuda:0"))  # fits: nothing raised
     with pytest.raises(nv.ValidationError) as err:
-        require_device_memory(3 * 2**30, 2**30, "torch backend: a batch of 4096 items", torch.device("cuda:0"))
+        require_memory(3 * 2**30, "torch backend: a batch of 4096 items", detail, limit=(2**30, "free on cuda:0"))
     message = str(err.value)
     assert "a batch of 4096 items" in message and "cuda:0" in message and "batch_size" in message
     assert message.count(". ") == 0 and message.endswith(".")
