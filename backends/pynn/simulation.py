@@ -52,7 +52,7 @@ from .build import (
     time_offset,
 )
 from .capabilities import Simulator
-from .translation import from_pynn_weights, to_pynn_weights, translate
+from .translation import connection_degrees, from_pynn_weights, to_pynn_weights, translate
 
 __all__ = ["PyNNSimulation"]
 
@@ -105,7 +105,7 @@ class PyNNSimulation(Simulation):
         # wall time in the simulator's run and in (re)building the network, as the backend kit reports them
         self._done.update(run_wall_ns=0, build_wall_ns=0)
         self._n_neurons = sum(p.size for p in self._network.populations.values() if not p.is_source)
-        self._degrees = self._connection_degrees()
+        self._degrees = connection_degrees(self._network, self._plan)
         weights = {name: conns.weight.copy() for name, conns in self._plan.connections.items()}
         #: plastic projections: a run with plasticity on may change their weights in the simulator
         self._has_plastic = any(part.synapse.kind == "STDPMechanism" for part in self._plan.parts)
@@ -438,18 +438,6 @@ class PyNNSimulation(Simulation):
         return {}
 
     # -- activity counts ------------------------------------------------------
-    def _connection_degrees(self) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
-        """Per population: outgoing connections, outgoing plastic connections, incoming plastic connections."""
-        sizes = {name: pop.size for name, pop in self._network.populations.items()}
-        out = {name: (np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int64)) for name, n in sizes.items()}
-        for name, proj in self._network.projections.items():
-            conns = self._plan.connections[name]
-            out[proj.pre][0][:] += np.bincount(conns.pre, minlength=sizes[proj.pre])
-            if proj.synapse.plastic:
-                out[proj.pre][1][:] += np.bincount(conns.pre, minlength=sizes[proj.pre])
-                out[proj.post][2][:] += np.bincount(conns.post, minlength=sizes[proj.post])
-        return out
-
     def _live_statistics(self) -> dict[str, int]:
         """Spikes, synaptic events and plastic updates since the last (re)build, from the recorded spikes."""
         spikes = events = plastic = 0

@@ -35,6 +35,7 @@ from neurovpr.ir.synapses import STDPMechanism
 
 __all__ = [
     "PopulationPlan",
+    "connection_degrees",
     "SynapsePlan",
     "PartPlan",
     "NetworkPlan",
@@ -240,3 +241,16 @@ def translate(network: Network, *, dt: float, seed: int) -> NetworkPlan:
                 )
             )
     return NetworkPlan(dt=float(dt), populations=pops, parts=parts, connections=connections, parts_of=parts_of)
+
+
+def connection_degrees(network: Network, plan: NetworkPlan) -> dict[str, tuple[np.ndarray, np.ndarray, np.ndarray]]:
+    """Per population: outgoing connections, outgoing plastic connections, incoming plastic connections."""
+    sizes = {name: pop.size for name, pop in network.populations.items()}
+    out = {name: (np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int64)) for name, n in sizes.items()}
+    for name, proj in network.projections.items():
+        conns = plan.connections[name]
+        out[proj.pre][0][:] += np.bincount(conns.pre, minlength=sizes[proj.pre])
+        if proj.synapse.plastic:
+            out[proj.pre][1][:] += np.bincount(conns.pre, minlength=sizes[proj.pre])
+            out[proj.post][2][:] += np.bincount(conns.post, minlength=sizes[proj.post])
+    return out
