@@ -28,7 +28,7 @@ import torch
 
 from neurovpr.resources import require_memory
 
-from .neurons import FLUSH, conductance_step, current_step
+from .neurons import FLUSH, Scratch, conductance_step, current_step, flush_below
 from .translation import DenseBlock, Layout, NeuronGroup
 
 __all__ = ["Compiled", "BatchState", "Dense", "FLUSH"]
@@ -123,6 +123,10 @@ class Compiled:
         for block in layout.dense:
             self.dense.setdefault(block.pre, []).append(Dense.of(block, device, dtype))
         self.theta = t(theta)
+        for g in self.groups:  # inference: the adaptive thresholds are fixed, so each threshold is summed once
+            if g.conductance:
+                g.p["v_thresh_theta"] = g.p["v_thresh"] + self.theta[g.lo : g.hi]
+        self.below = flush_below(dtype)
         cat = lambda key: np.concatenate([g.params[key] for g in layout.groups]) if layout.groups else np.zeros(0)  # noqa: E731
         self.v_init = t(cat("v_init"))
         self.ica_init = t(cat("i_ca_init"))
@@ -133,10 +137,12 @@ class Compiled:
         params = {key: np.concatenate([g.params[key] for g in run]) for key in keys}
         p = {name: t(values) for name, values in params.items()}
         p["i_offset_p20"] = t(params["i_offset"] * params["p20"])
+        p["i_offset_x_p20"] = p["i_offset"] * p["p20"]  # in the state's dtype, as the current step once computed it
         conductance = run[0].conductance
         if conductance:
             p["gl_rest"] = t(params["gl"] * params["v_rest"])
         total = t(params["refrac"] + params["lock"], torch.int32)
+        p["lock_steps"] = t(params["lock"], torch.int32)
         return _Group(
             lo=run[0].lo, hi=run[-1].hi, members=tuple((g.name, g.lo, g.hi) for g in run), conductance=conductance,
             calcium=any(g.calcium for g in run), p=p, refrac_total=total,
@@ -164,8 +170,8 @@ class BatchState:
         self.ring = net.ring + lead - 1
         n, dev, dtype = net.n, net.device, net.dtype
         width = 8 if dtype == torch.float64 else 4
-        # delay ring, v, isyn, ica, refr, counts; extra_bytes: the caller's (the source drive)
-        need = batch * n * (2 * self.ring * width + 4 * width + 4 + 8) + extra_bytes
+        # delay ring, v, isyn, ica, refr, counts, the groups' scratch; extra_bytes: the caller's (the source drive)
+        need = batch * n * (2 * self.ring * width + 4 * width + 4 + 8 + Scratch.bytes_per(width)) + extra_bytes
         what = f"torch backend: a batch of {batch} items of {n} neurons with a {self.ring}-step delay ring"
         if dev.type == "cuda":  # the state lives in the device's memory
             free, _ = torch.cuda.mem_get_info(dev)
@@ -178,6 +184,8 @@ class BatchState:
         self.refr = torch.zeros((batch, n), dtype=torch.int32, device=dev)
         self.buf = torch.zeros(2 * self.ring * batch * n, dtype=dtype, device=dev)
         self.counts = torch.zeros((batch, n), dtype=torch.int64, device=dev)
+        self.scratch = [Scratch.of(batch, g.hi - g.lo, dtype, dev) for g in net.groups]
+        self._one = torch.ones((), dtype=torch.int64, device=dev)
         self.synaptic_events = 0
 
     def variable(self, name: str) -> torch.Tensor:
@@ -247,24 +255,28 @@ class BatchState:
         slots.zero_()
 
     def update(self, j: int) -> list[tuple[str, torch.Tensor]]:
-        """Advance every population over step ``j``; each population's ``(batch, size)`` spikes (scheduled, counted)."""
+        """Advance every population over step ``j``; each population's ``(batch, size)`` spikes (scheduled, counted).
+
+        The spikes are views of the groups' scratch: valid until the next step.
+        """
         out = []
-        for g in self.net.groups:
-            spikes = self._conductance(g) if g.conductance else self._current(g)
-            self.counts[:, g.lo : g.hi] += spikes
+        for g, scratch in zip(self.net.groups, self.scratch, strict=True):
+            spikes = self._conductance(g, scratch) if g.conductance else self._current(g, scratch)
             for name, lo, hi in g.members:
                 own = spikes[:, lo - g.lo : hi - g.lo]
                 item, neuron = torch.nonzero(own, as_tuple=True)
-                self.emit(name, item, neuron, j + 1)
+                if item.numel():
+                    self.counts[:, lo:hi].index_put_((item, neuron), self._one, accumulate=True)
+                    self.emit(name, item, neuron, j + 1)
                 out.append((name, own))
         return out
 
-    def _current(self, g: _Group) -> torch.Tensor:
+    def _current(self, g: _Group, scratch: Scratch) -> torch.Tensor:
         sl = slice(g.lo, g.hi)
         v, ie, ii, ica, refr = self.v[:, sl], self.isyn[0, :, sl], self.isyn[1, :, sl], self.ica[:, sl], self.refr[:, sl]
-        return current_step(v, ie, ii, ica, refr, g.p, g.refrac_total, g.calcium)
+        return current_step(v, ie, ii, ica, refr, g.p, g.refrac_total, g.calcium, self.net.below, scratch)
 
-    def _conductance(self, g: _Group) -> torch.Tensor:
+    def _conductance(self, g: _Group, scratch: Scratch) -> torch.Tensor:
         sl = slice(g.lo, g.hi)
         v, ie, ii, refr = self.v[:, sl], self.isyn[0, :, sl], self.isyn[1, :, sl], self.refr[:, sl]
-        return conductance_step(v, ie, ii, refr, self.net.theta[sl], g.p, g.refrac_total, self.dt)
+        return conductance_step(v, ie, ii, refr, g.p, g.refrac_total, self.dt, self.net.below, scratch)

@@ -5,74 +5,134 @@ parameters per neuron) over one step, in place, and returns its spikes (boolean)
 propagation of the membrane with the synaptic state at the start of the step, decay of the synaptic
 state (values below :data:`FLUSH` set to 0, as the reference backend does), threshold,
 reset, refractoriness and lockout (one step counter per neuron), the Ca2+ jump.
+
+The arithmetic of every value is the reference backend's, operation for operation (a sum
+may have its two terms swapped, which changes no bit); what is chosen here is how little
+each step costs on a CPU, where every tensor operation reads and writes the whole
+``(batch, neurons)`` block, and a new block of that size is memory the allocator maps and
+the processor faults in again at every step:
+
+- every intermediate is written into the group's :class:`Scratch` (allocated once per batch)
+  or into the state itself, with ``out=`` and in-place operations;
+- the flush is one ``hardshrink`` (it keeps ``x`` where ``|x|`` exceeds the largest number
+  below :data:`FLUSH`, i.e. where ``|x| >= FLUSH``);
+- "no conductance" is one ``logical_or`` of the two synaptic states;
+- the step counters are integers, counted down with a clamp.
+
+The spikes returned live in the scratch: they are valid until the group's next step.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+import numpy as np
 import torch
 
-__all__ = ["FLUSH", "conductance_step", "current_step"]
+__all__ = ["FLUSH", "Scratch", "conductance_step", "current_step", "flush_below"]
 
 #: Synaptic currents (nA) and conductances (uS) below this are set to 0, as the reference backend does.
 FLUSH = 1e-18
 
 
-def _decay(x: torch.Tensor, factor: torch.Tensor) -> None:
-    """``x *= factor`` in place, then values below :data:`FLUSH` in magnitude set to 0."""
+def flush_below(dtype: torch.dtype) -> float:
+    """The largest number of ``dtype`` below :data:`FLUSH` (in ``dtype``): ``|x|`` above it is ``|x| >= FLUSH``."""
+    kind = np.float64 if dtype == torch.float64 else np.float32
+    return float(np.nextafter(kind(FLUSH), kind(0.0)))
+
+
+@dataclass
+class Scratch:
+    """The working memory of one group's step for a batch: three value blocks, two masks, one counter block."""
+
+    a: torch.Tensor
+    b: torch.Tensor
+    c: torch.Tensor
+    mask: torch.Tensor
+    spikes: torch.Tensor
+    count: torch.Tensor
+
+    @staticmethod
+    def bytes_per(width: int) -> int:
+        """Bytes per item and neuron for values of ``width`` bytes."""
+        return 3 * width + 2 + 4
+
+    @classmethod
+    def of(cls, batch: int, n: int, dtype: torch.dtype, device: torch.device) -> Scratch:
+        """Scratch for ``batch`` items of ``n`` neurons."""
+
+        def block(kind: torch.dtype) -> torch.Tensor:
+            return torch.empty((batch, n), dtype=kind, device=device)
+
+        return cls(
+            a=block(dtype), b=block(dtype), c=block(dtype), mask=block(torch.bool), spikes=block(torch.bool),
+            count=block(torch.int32),
+        )  # fmt: skip
+
+
+def _decay(x: torch.Tensor, factor: torch.Tensor, below: float) -> None:
+    """``x *= factor`` in place, then values below :data:`FLUSH` in magnitude set to 0 (``below``: :func:`flush_below`)."""
     x.mul_(factor)
-    x.masked_fill_(x.abs() < FLUSH, 0.0)
+    torch.hardshrink(x, below, out=x)
 
 
-def _after_spikes(
-    v: torch.Tensor, refr: torch.Tensor, v_new: torch.Tensor, refr_new: torch.Tensor, spikes: torch.Tensor,
-    v_reset: torch.Tensor, refrac_total: torch.Tensor,
-) -> None:  # fmt: skip
-    v.copy_(torch.where(spikes, v_reset, v_new))
-    refr.copy_(torch.where(spikes, refrac_total, refr_new))
+def _finish(
+    v: torch.Tensor, refr: torch.Tensor, v_new: torch.Tensor, threshold: torch.Tensor, p: dict[str, torch.Tensor],
+    refrac_total: torch.Tensor, s: Scratch,
+) -> torch.Tensor:  # fmt: skip
+    """Count the step counters down, find the spikes (at threshold, counter at 0), reset; the spikes."""
+    refr_new = torch.sub(refr, 1, out=s.count).clamp_min_(0)
+    spikes = torch.ge(v_new, threshold, out=s.spikes).logical_and_(torch.eq(refr_new, 0, out=s.mask))
+    torch.where(spikes, p["v_reset"], v_new, out=v)
+    torch.where(spikes, refrac_total, refr_new, out=refr)
+    return spikes
 
 
 def current_step(
     v: torch.Tensor, ie: torch.Tensor, ii: torch.Tensor, ica: torch.Tensor, refr: torch.Tensor,
-    p: dict[str, torch.Tensor], refrac_total: torch.Tensor, calcium: bool,
+    p: dict[str, torch.Tensor], refrac_total: torch.Tensor, calcium: bool, below: float, s: Scratch,
 ) -> torch.Tensor:  # fmt: skip
-    """Advance current-based neurons (``IF_curr_exp``, ``IF_curr_exp_ca2_adaptive``) one step; their spikes."""
-    rest = p["v_rest"]
-    moved = rest + (v - rest) * p["p22"] + ie * p["p21e"] - ii * p["p21i"] - ica * p["p21ca"] + p["i_offset"] * p["p20"]
-    held = refr > 0
-    v_new = torch.where(held, v, moved)
-    refr_new = refr - held.to(refr.dtype)
-    _decay(ie, p["p11e"])
-    _decay(ii, p["p11i"])
+    """Advance current-based neurons (``IF_curr_exp``, ``IF_curr_exp_ca2_adaptive``) one step; their spikes.
+
+    ``below`` is :func:`flush_below` of the state's dtype; ``s`` the group's :class:`Scratch`.
+    """
+    # rest + (v - rest) * p22 + ie * p21e - ii * p21i - ica * p21ca + i_offset * p20, in that order
+    moved = torch.sub(v, p["v_rest"], out=s.a).mul_(p["p22"]).add_(p["v_rest"])
+    moved.add_(torch.mul(ie, p["p21e"], out=s.b)).sub_(torch.mul(ii, p["p21i"], out=s.b))
+    moved.sub_(torch.mul(ica, p["p21ca"], out=s.b)).add_(p["i_offset_x_p20"])
+    v_new = torch.where(torch.gt(refr, 0, out=s.mask), v, moved, out=moved)
+    _decay(ie, p["p11e"], below)
+    _decay(ii, p["p11i"], below)
     if calcium:
-        _decay(ica, p["p11ca"])
-    spikes = (v_new >= p["v_thresh"]) & (refr_new == 0)
-    _after_spikes(v, refr, v_new, refr_new, spikes, p["v_reset"], refrac_total)
+        _decay(ica, p["p11ca"], below)
+    spikes = _finish(v, refr, v_new, p["v_thresh"], p, refrac_total, s)
     if calcium:
-        ica += spikes * p["i_alpha"]
+        ica.add_(torch.mul(spikes, p["i_alpha"], out=s.b))
     return spikes
 
 
 def conductance_step(
-    v: torch.Tensor, ie: torch.Tensor, ii: torch.Tensor, refr: torch.Tensor, theta: torch.Tensor,
-    p: dict[str, torch.Tensor], refrac_total: torch.Tensor, dt: float,
+    v: torch.Tensor, ie: torch.Tensor, ii: torch.Tensor, refr: torch.Tensor,
+    p: dict[str, torch.Tensor], refrac_total: torch.Tensor, dt: float, below: float, s: Scratch,
 ) -> torch.Tensor:  # fmt: skip
-    """Advance conductance-based neurons (``IF_cond_exp``, ``IF_cond_exp_adaptive``, threshold + ``theta``) one step."""
-    rest = p["v_rest"]
-    held = refr > p["lock"]
-    # the same arithmetic, in the same order, as rest + (v - rest) * p22 + i_offset * p20 (leak),
-    # v_inf = (gl * rest + ge * e_rev_e + gi * e_rev_i + i_offset) / gt and
-    # v_inf + (v - v_inf) * exp(-dt * gt / cm) (moved), with fewer temporaries
-    leak = torch.sub(v, rest).mul_(p["p22"]).add_(rest).add_(p["i_offset_p20"])
-    ge = ie * p["fe"]
-    gi = ii * p["fi"]
-    gt = torch.add(p["gl"], ge).add_(gi)
-    v_inf = torch.add(p["gl_rest"], ge.mul_(p["e_rev_e"])).add_(gi.mul_(p["e_rev_i"])).add_(p["i_offset"]).div_(gt)
-    moved = torch.sub(v, v_inf).mul_(gt.mul_(-dt).div_(p["cm"]).exp_()).add_(v_inf)
-    free = torch.where((ie == 0.0) & (ii == 0.0), leak, moved)
-    v_new = torch.where(held, v, free)
-    refr_new = refr - (refr > 0).to(refr.dtype)
-    _decay(ie, p["p11e"])
-    _decay(ii, p["p11i"])
-    spikes = (v_new >= p["v_thresh"] + theta) & (refr_new == 0)
-    _after_spikes(v, refr, v_new, refr_new, spikes, p["v_reset"], refrac_total)
-    return spikes
+    """Advance conductance-based neurons (``IF_cond_exp``, ``IF_cond_exp_adaptive``) one step.
+
+    Their threshold is ``p["v_thresh_theta"]``: ``v_thresh`` plus the adaptive threshold's
+    fixed (learned) value. ``below`` is :func:`flush_below` of the state's dtype; ``s`` the
+    group's :class:`Scratch`.
+    """
+    # leak = rest + (v - rest) * p22 + i_offset * p20;
+    # v_inf = (gl * rest + ge * e_rev_e + gi * e_rev_i + i_offset) / gt with gt = gl + ge + gi, ge = ie * fe, gi = ii * fi;
+    # moved = v_inf + (v - v_inf) * exp(-dt * gt / cm); the leak alone where there is no conductance
+    ge = torch.mul(ie, p["fe"], out=s.a)
+    gi = torch.mul(ii, p["fi"], out=s.b)
+    gt = torch.add(ge, p["gl"], out=s.c).add_(gi)
+    v_inf = ge.mul_(p["e_rev_e"]).add_(p["gl_rest"]).add_(gi.mul_(p["e_rev_i"])).add_(p["i_offset"]).div_(gt)
+    factor = gt.mul_(-dt).div_(p["cm"]).exp_()
+    moved = torch.sub(v, v_inf, out=s.b).mul_(factor).add_(v_inf)
+    leak = torch.sub(v, p["v_rest"], out=s.c).mul_(p["p22"]).add_(p["v_rest"]).add_(p["i_offset_p20"])
+    free = torch.where(torch.logical_or(ie, ii, out=s.mask), moved, leak, out=s.a)
+    v_new = torch.where(torch.gt(refr, p["lock_steps"], out=s.mask), v, free, out=s.a)
+    _decay(ie, p["p11e"], below)
+    _decay(ii, p["p11i"], below)
+    return _finish(v, refr, v_new, p["v_thresh_theta"], p, refrac_total, s)
