@@ -28,7 +28,7 @@ import torch
 
 from neurovpr.resources import require_memory
 
-from .neurons import FLUSH, Scratch, conductance_step, current_step, flush_below
+from .neurons import FLUSH, Scratch, conductance_step, current_step, flush_below, reset_spiking
 from .translation import DenseBlock, Layout, NeuronGroup
 
 __all__ = ["Compiled", "BatchState", "Dense", "FLUSH"]
@@ -262,10 +262,12 @@ class BatchState:
         out = []
         for g, scratch in zip(self.net.groups, self.scratch, strict=True):
             spikes = self._conductance(g, scratch) if g.conductance else self._current(g, scratch)
+            ica = self.ica if g.calcium else None
             for name, lo, hi in g.members:
                 own = spikes[:, lo - g.lo : hi - g.lo]
                 item, neuron = torch.nonzero(own, as_tuple=True)
                 if item.numel():
+                    reset_spiking(self.v, self.refr, ica, item, neuron + lo, neuron + (lo - g.lo), g.p, g.refrac_total)
                     self.counts[:, lo:hi].index_put_((item, neuron), self._one, accumulate=True)
                     self.emit(name, item, neuron, j + 1)
                 out.append((name, own))
@@ -274,9 +276,9 @@ class BatchState:
     def _current(self, g: _Group, scratch: Scratch) -> torch.Tensor:
         sl = slice(g.lo, g.hi)
         v, ie, ii, ica, refr = self.v[:, sl], self.isyn[0, :, sl], self.isyn[1, :, sl], self.ica[:, sl], self.refr[:, sl]
-        return current_step(v, ie, ii, ica, refr, g.p, g.refrac_total, g.calcium, self.net.below, scratch)
+        return current_step(v, ie, ii, ica, refr, g.p, g.calcium, self.net.below, scratch)
 
     def _conductance(self, g: _Group, scratch: Scratch) -> torch.Tensor:
         sl = slice(g.lo, g.hi)
         v, ie, ii, refr = self.v[:, sl], self.isyn[0, :, sl], self.isyn[1, :, sl], self.refr[:, sl]
-        return conductance_step(v, ie, ii, refr, g.p, g.refrac_total, self.dt, self.net.below, scratch)
+        return conductance_step(v, ie, ii, refr, g.p, self.dt, self.net.below, scratch)

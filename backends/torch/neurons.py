@@ -3,8 +3,10 @@
 Each function advances the ``(batch, neurons)`` state of one group of neurons (their
 parameters per neuron) over one step, in place, and returns its spikes (boolean): exact
 propagation of the membrane with the synaptic state at the start of the step, decay of the synaptic
-state (values below :data:`FLUSH` set to 0, as the reference backend does), threshold,
-reset, refractoriness and lockout (one step counter per neuron), the Ca2+ jump.
+state (values below :data:`FLUSH` set to 0, as the reference backend does), refractoriness and
+lockout (one step counter per neuron), threshold. What a spike does to its own neuron (reset,
+refractory count, the Ca2+ jump) is left to the caller, which finds the few spiking neurons
+anyway and sets them with :func:`reset_spiking` instead of a pass over the whole state.
 
 The arithmetic of every value is the reference backend's, operation for operation (a sum
 may have its two terms swapped, which changes no bit); what is chosen here is how little
@@ -17,7 +19,8 @@ the processor faults in again at every step:
 - the flush is one ``hardshrink`` (it keeps ``x`` where ``|x|`` exceeds the largest number
   below :data:`FLUSH`, i.e. where ``|x| >= FLUSH``);
 - "no conductance" is one ``logical_or`` of the two synaptic states;
-- the step counters are integers, counted down with a clamp.
+- the step counters are integers, counted down with a clamp;
+- the reset touches the spiking neurons only (:func:`reset_spiking`).
 
 The spikes returned live in the scratch: they are valid until the group's next step.
 """
@@ -29,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 import torch
 
-__all__ = ["FLUSH", "Scratch", "conductance_step", "current_step", "flush_below"]
+__all__ = ["FLUSH", "Scratch", "conductance_step", "current_step", "flush_below", "reset_spiking"]
 
 #: Synaptic currents (nA) and conductances (uS) below this are set to 0, as the reference backend does.
 FLUSH = 1e-18
@@ -76,21 +79,15 @@ def _decay(x: torch.Tensor, factor: torch.Tensor, below: float) -> None:
     torch.hardshrink(x, below, out=x)
 
 
-def _finish(
-    v: torch.Tensor, refr: torch.Tensor, v_new: torch.Tensor, threshold: torch.Tensor, p: dict[str, torch.Tensor],
-    refrac_total: torch.Tensor, s: Scratch,
-) -> torch.Tensor:  # fmt: skip
-    """Count the step counters down, find the spikes (at threshold, counter at 0), reset; the spikes."""
-    refr_new = torch.sub(refr, 1, out=s.count).clamp_min_(0)
-    spikes = torch.ge(v_new, threshold, out=s.spikes).logical_and_(torch.eq(refr_new, 0, out=s.mask))
-    torch.where(spikes, p["v_reset"], v_new, out=v)
-    torch.where(spikes, refrac_total, refr_new, out=refr)
-    return spikes
+def _spikes(v: torch.Tensor, refr: torch.Tensor, threshold: torch.Tensor, s: Scratch) -> torch.Tensor:
+    """Count the step counters down in place and find the spikes: at threshold with the counter at 0."""
+    torch.sub(refr, 1, out=refr).clamp_min_(0)
+    return torch.ge(v, threshold, out=s.spikes).logical_and_(torch.eq(refr, 0, out=s.mask))
 
 
 def current_step(
     v: torch.Tensor, ie: torch.Tensor, ii: torch.Tensor, ica: torch.Tensor, refr: torch.Tensor,
-    p: dict[str, torch.Tensor], refrac_total: torch.Tensor, calcium: bool, below: float, s: Scratch,
+    p: dict[str, torch.Tensor], calcium: bool, below: float, s: Scratch,
 ) -> torch.Tensor:  # fmt: skip
     """Advance current-based neurons (``IF_curr_exp``, ``IF_curr_exp_ca2_adaptive``) one step; their spikes.
 
@@ -100,20 +97,17 @@ def current_step(
     moved = torch.sub(v, p["v_rest"], out=s.a).mul_(p["p22"]).add_(p["v_rest"])
     moved.add_(torch.mul(ie, p["p21e"], out=s.b)).sub_(torch.mul(ii, p["p21i"], out=s.b))
     moved.sub_(torch.mul(ica, p["p21ca"], out=s.b)).add_(p["i_offset_x_p20"])
-    v_new = torch.where(torch.gt(refr, 0, out=s.mask), v, moved, out=moved)
+    torch.where(torch.gt(refr, 0, out=s.mask), v, moved, out=v)
     _decay(ie, p["p11e"], below)
     _decay(ii, p["p11i"], below)
     if calcium:
         _decay(ica, p["p11ca"], below)
-    spikes = _finish(v, refr, v_new, p["v_thresh"], p, refrac_total, s)
-    if calcium:
-        ica.add_(torch.mul(spikes, p["i_alpha"], out=s.b))
-    return spikes
+    return _spikes(v, refr, p["v_thresh"], s)
 
 
 def conductance_step(
     v: torch.Tensor, ie: torch.Tensor, ii: torch.Tensor, refr: torch.Tensor,
-    p: dict[str, torch.Tensor], refrac_total: torch.Tensor, dt: float, below: float, s: Scratch,
+    p: dict[str, torch.Tensor], dt: float, below: float, s: Scratch,
 ) -> torch.Tensor:  # fmt: skip
     """Advance conductance-based neurons (``IF_cond_exp``, ``IF_cond_exp_adaptive``) one step.
 
@@ -132,7 +126,22 @@ def conductance_step(
     moved = torch.sub(v, v_inf, out=s.b).mul_(factor).add_(v_inf)
     leak = torch.sub(v, p["v_rest"], out=s.c).mul_(p["p22"]).add_(p["v_rest"]).add_(p["i_offset_p20"])
     free = torch.where(torch.logical_or(ie, ii, out=s.mask), moved, leak, out=s.a)
-    v_new = torch.where(torch.gt(refr, p["lock_steps"], out=s.mask), v, free, out=s.a)
+    torch.where(torch.gt(refr, p["lock_steps"], out=s.mask), v, free, out=v)
     _decay(ie, p["p11e"], below)
     _decay(ii, p["p11i"], below)
-    return _finish(v, refr, v_new, p["v_thresh_theta"], p, refrac_total, s)
+    return _spikes(v, refr, p["v_thresh_theta"], s)
+
+
+def reset_spiking(
+    v: torch.Tensor, refr: torch.Tensor, ica: torch.Tensor | None, item: torch.Tensor, column: torch.Tensor,
+    local: torch.Tensor, p: dict[str, torch.Tensor], refrac_total: torch.Tensor,
+) -> None:  # fmt: skip
+    """Reset the neurons that spiked: ``v`` to ``v_reset``, the counter to refractory + lockout steps, ``ica`` up by ``i_alpha``.
+
+    ``item`` and ``column`` index the whole state (``(batch, N)``), ``local`` the same neurons in
+    the group's parameters; ``ica`` is ``None`` for a group without Ca2+ current.
+    """
+    v.index_put_((item, column), p["v_reset"][local])
+    refr.index_put_((item, column), refrac_total[local])
+    if ica is not None:
+        ica.index_put_((item, column), p["i_alpha"][local], accumulate=True)
