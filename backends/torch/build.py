@@ -9,7 +9,8 @@ Order within step ``j`` (the reference backend's, backends/reference/kernels.py)
    the Ca2+ jump); each population's spikes are stamped ``j + 1`` and scheduled into the ring.
 
 A spike is scheduled by looking up its population's fan-out table
-(:class:`.translation.FanOut`) and adding every connection's weight at
+(:class:`.translation.FanOut`; look-ups by ``index_select``, which copies faster than indexing
+with a tensor) and adding every connection's weight at
 ``(receptor, (stamp + delay) % ring, item, target)`` with one ``index_add_``: the work is
 proportional to the spikes, as in an event-driven simulator, and the same code serves
 every connector. A projection's dense blocks (:class:`.translation.DenseBlock`) are
@@ -172,6 +173,7 @@ class BatchState:
         width = 8 if dtype == torch.float64 else 4
         # delay ring, v, isyn, ica, refr, counts, the groups' scratch; extra_bytes: the caller's (the source drive)
         need = batch * n * (2 * self.ring * width + 4 * width + 4 + 8 + Scratch.bytes_per(width)) + extra_bytes
+        need += 8 * sum(fan.post.numel() for fan in net.fan.values())  # the fixed part of each connection's ring index
         what = f"torch backend: a batch of {batch} items of {n} neurons with a {self.ring}-step delay ring"
         if dev.type == "cuda":  # the state lives in the device's memory
             free, _ = torch.cuda.mem_get_info(dev)
@@ -186,6 +188,8 @@ class BatchState:
         self.counts = torch.zeros((batch, n), dtype=torch.int64, device=dev)
         self.scratch = [Scratch.of(batch, g.hi - g.lo, dtype, dev) for g in net.groups]
         self._one = torch.ones((), dtype=torch.int64, device=dev)
+        self._targets: dict[str, torch.Tensor] = {}
+        self._range = torch.arange(0, device=dev)
         self.synaptic_events = 0
 
     def variable(self, name: str) -> torch.Tensor:
@@ -215,21 +219,37 @@ class BatchState:
         fan = self.net.fan.get(population)
         if fan is None:
             return
-        deg = fan.deg[neuron]
+        deg = torch.index_select(fan.deg, 0, neuron)
         total = int(deg.sum())
         if total == 0:
             return
         self.synaptic_events += total
         first = torch.cumsum(deg, 0) - deg
-        conn = torch.repeat_interleave(fan.ptr[neuron] - first, deg, output_size=total)
-        conn += torch.arange(total, device=deg.device)
+        conn = torch.repeat_interleave(torch.index_select(fan.ptr, 0, neuron) - first, deg, output_size=total)
+        conn += self._iota(total)
         rows = torch.repeat_interleave(item, deg, output_size=total)
-        ring, b, n = self.ring, self.batch, self.net.n
         if isinstance(stamp, torch.Tensor):
             stamp = torch.repeat_interleave(stamp, deg, output_size=total)
-        slot = torch.remainder(fan.delay[conn] + stamp, ring)
-        flat = ((fan.receptor[conn] * ring + slot) * b + rows) * n + fan.post[conn]
-        self.buf.index_add_(0, flat, fan.weight[conn])
+        # ((receptor * ring + slot) * batch + row) * N + post, the receptor and post part looked up per connection
+        slot = torch.remainder(torch.index_select(fan.delay, 0, conn) + stamp, self.ring)
+        flat = slot.mul_(self.batch * self.net.n).add_(rows.mul_(self.net.n))
+        flat += torch.index_select(self._target(population, fan), 0, conn)
+        self.buf.index_add_(0, flat, torch.index_select(fan.weight, 0, conn))
+
+    def _target(self, population: str, fan: _Fan) -> torch.Tensor:
+        """Per connection of ``population``'s fan-out, the fixed part of its ring index.
+
+        That is ``receptor x ring x batch x N + post`` (kept for the batch).
+        """
+        if population not in self._targets:
+            self._targets[population] = fan.receptor * (self.ring * self.batch * self.net.n) + fan.post
+        return self._targets[population]
+
+    def _iota(self, total: int) -> torch.Tensor:
+        """``0 .. total - 1`` (a view of one range kept for the batch)."""
+        if self._range.numel() < total:
+            self._range = torch.arange(max(total, 2 * self._range.numel()), device=self._range.device)
+        return self._range[:total]
 
     def emit_dense(
         self, block: Dense, item: torch.Tensor, neuron: torch.Tensor, stamp: int | torch.Tensor, *, count: bool = True
@@ -241,7 +261,7 @@ class BatchState:
         if count:
             self.synaptic_events += int(block.synapses[neuron.cpu().numpy()].sum())
         ring = self.buf.view(2, self.ring, self.batch, self.net.n)[block.receptor, :, :, block.lo : block.hi]
-        rows = block.weight[neuron]
+        rows = torch.index_select(block.weight, 0, neuron)
         if isinstance(stamp, torch.Tensor):
             ring.index_put_((torch.remainder(stamp + block.delay, self.ring), item), rows, accumulate=True)
         else:
@@ -267,8 +287,9 @@ class BatchState:
                 own = spikes[:, lo - g.lo : hi - g.lo]
                 item, neuron = torch.nonzero(own, as_tuple=True)
                 if item.numel():
-                    reset_spiking(self.v, self.refr, ica, item, neuron + lo, neuron + (lo - g.lo), g.p, g.refrac_total)
-                    self.counts[:, lo:hi].index_put_((item, neuron), self._one, accumulate=True)
+                    flat = item * self.net.n + lo + neuron
+                    reset_spiking(self.v, self.refr, ica, flat, neuron + (lo - g.lo), g.p, g.refrac_total)
+                    self.counts.view(-1).index_add_(0, flat, self._one.expand(flat.numel()))
                     self.emit(name, item, neuron, j + 1)
                 out.append((name, own))
         return out

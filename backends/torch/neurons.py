@@ -133,15 +133,16 @@ def conductance_step(
 
 
 def reset_spiking(
-    v: torch.Tensor, refr: torch.Tensor, ica: torch.Tensor | None, item: torch.Tensor, column: torch.Tensor,
-    local: torch.Tensor, p: dict[str, torch.Tensor], refrac_total: torch.Tensor,
+    v: torch.Tensor, refr: torch.Tensor, ica: torch.Tensor | None, flat: torch.Tensor, local: torch.Tensor,
+    p: dict[str, torch.Tensor], refrac_total: torch.Tensor,
 ) -> None:  # fmt: skip
     """Reset the neurons that spiked: ``v`` to ``v_reset``, the counter to refractory + lockout steps, ``ica`` up by ``i_alpha``.
 
-    ``item`` and ``column`` index the whole state (``(batch, N)``), ``local`` the same neurons in
-    the group's parameters; ``ica`` is ``None`` for a group without Ca2+ current.
+    ``flat`` indexes the whole (contiguous) ``(batch, N)`` state flattened (``item x N + column``),
+    ``local`` the same neurons in the group's parameters; ``ica`` is ``None`` for a group without
+    Ca2+ current.
     """
-    v.index_put_((item, column), p["v_reset"][local])
-    refr.index_put_((item, column), refrac_total[local])
+    v.view(-1).index_copy_(0, flat, torch.index_select(p["v_reset"], 0, local))
+    refr.view(-1).index_copy_(0, flat, torch.index_select(refrac_total, 0, local))
     if ica is not None:
-        ica.index_put_((item, column), p["i_alpha"][local], accumulate=True)
+        ica.view(-1).index_add_(0, flat, torch.index_select(p["i_alpha"], 0, local))
