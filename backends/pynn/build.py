@@ -1,7 +1,9 @@
 """Build a :class:`~.translation.NetworkPlan` with PyNN on NEST or Brian2.
 
 The PyNN objects are standard cell types, ``FromListConnector`` projections and
-``StaticSynapse`` / ``STDPMechanism``. Where a simulator's own convention differs
+``StaticSynapse`` / ``STDPMechanism``; on NEST a static projection's connections are made
+by one ``nest.Connect`` of arrays with the values PyNN would pass (:func:`_connect_nest_arrays`;
+PyNN's own connector makes them one target at a time). Where a simulator's own convention differs
 from the IR semantics, the build adjusts native settings after PyNN has created the
 objects (see each function); the documented differences that remain are listed in
 this package's README.md.
@@ -14,6 +16,7 @@ Brian2 receive the same input spikes for the same seed.
 from __future__ import annotations
 
 import contextlib
+import copy
 import importlib
 import io
 import logging
@@ -234,21 +237,79 @@ def _match_order(part: PartPlan, pre: np.ndarray, post: np.ndarray, delay: np.nd
     return order
 
 
+def _nest_arrays(built: Built, part: PartPlan, post_pop: Any) -> bool:
+    """Whether the part is connected by :func:`_connect_nest_arrays` (NEST, static synapses, a standard cell)."""
+    celltype = post_pop.celltype
+    return (
+        built.simulator == "nest"
+        and part.synapse.kind == "StaticSynapse"
+        and bool(getattr(celltype, "standard_receptor_type", False))
+        and not hasattr(celltype, "receptor_scale")
+    )
+
+
+def _connect_nest_arrays(projection: Any, part: PartPlan, weights: np.ndarray) -> None:
+    """Make a static projection's connections with one ``nest.Connect`` of arrays (NEST's ``one_to_one`` on node ids).
+
+    PyNN's ``FromListConnector`` connects one postsynaptic neuron at a time (a
+    ``nest.Connect`` and a ``NodeCollection.tolist()`` per target), which took 24 s to build
+    the paper-size LoCS-Net. This makes the same connections as PyNN's per-target calls,
+    with the same native values: the synapse type's own translation of the weights and
+    delays, inhibitory conductances negated (PyNN's ``_convergent_connect``), PyNN's
+    synapse model and label, and PyNN's record of the projection's sources updated.
+    """
+    import nest
+
+    syn = projection.synapse_type
+    space = copy.deepcopy(syn.parameter_space)
+    space.shape = (part.pre.size,)
+    space.update(weight=weights, delay=part.delay)
+    space = syn.translate(space)
+    space.evaluate()
+    native = dict(space.items())
+    weight = np.asarray(native["weight"], dtype=np.float64) * np.ones(part.pre.size)
+    delay = np.asarray(native["delay"], dtype=np.float64) * np.ones(part.pre.size)
+    if projection.receptor_type == "inhibitory" and projection.post.conductance_based:
+        weight = -weight  # NEST wants negative inhibitory conductances
+    # the node ids PyNN holds (NodeCollection.tolist() asks NEST for each one)
+    pre_ids = np.asarray(projection.pre.all_cells, dtype=np.int64)[part.pre]
+    post_ids = np.asarray(projection.post.all_cells, dtype=np.int64)[part.post]
+    spec = {
+        "synapse_model": projection.nest_synapse_model,
+        "synapse_label": projection.nest_synapse_label,
+        "weight": weight,
+        "delay": delay,
+    }
+    nest.Connect(pre_ids, post_ids, "one_to_one", spec)
+    projection._sources.update(np.unique(pre_ids).tolist())
+    projection._simulator.state.stale_connection_cache = True
+
+
 def _create_part(built: Built, plan: NetworkPlan, part: PartPlan, ir_weights: np.ndarray, check: bool) -> BuiltPart:
     sim = built.sim
     weights = to_pynn_weights(part.mode, ir_weights)
-    rows = np.column_stack([part.pre, part.post, weights, part.delay])
-    connector = sim.FromListConnector(rows, column_names=["weight", "delay"])
     pre = built.populations[part.pre_population]
     post = built.populations[part.post_population]
+    arrays = _nest_arrays(built, part, post) and part.pre.size > 0
+    # with arrays, PyNN creates the projection empty and the connections are made below
+    rows = np.zeros((0, 4)) if arrays else np.column_stack([part.pre, part.post, weights, part.delay])
+    connector = sim.FromListConnector(rows, column_names=["weight", "delay"])
     projection = sim.Projection(
         pre, post, connector, _synapse_type(built, part), receptor_type=part.receptor_type, label=part.label
     )
+    if arrays:
+        _connect_nest_arrays(projection, part, weights)
     post_plan = plan.populations[part.post_population]
     if built.simulator == "nest":
         inhibitory_cond = part.receptor_type == "inhibitory" and post_plan.conductance_based
         bp = BuiltPart(plan=part, projection=projection, pynn_sign=-1000.0 if inhibitory_cond else 1000.0)
-        if check:
+        if check and arrays:  # NEST made one connection per pair or raised: count them
+            made = len(nest_connections(bp))
+            if made != part.pre.size:
+                raise SimulationError(
+                    f"NEST created {made} connections for {part.label!r} where {part.pre.size} were requested."
+                )
+        elif check:
             nest_order(bp, nest_connections(bp), plan.dt)  # checks the connections PyNN made
         if part.synapse.kind == "STDPMechanism":
             set_nest_plasticity(bp, on=True)

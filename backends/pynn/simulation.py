@@ -7,8 +7,9 @@ time. Compiling a second one takes PyNN over: the first keeps what it had record
 :class:`~neurovpr.errors.SimulationError`. The owner is recorded on PyNN's own
 state object, the global it guards.
 
-``reset()`` rebuilds the network (PyNN's own ``reset`` cannot clear NEST's spikes
-in flight and restores Brian2's initial weights), carrying the current weights over:
+``reset()`` rebuilds the network (PyNN's own ``reset`` cannot clear NEST's spikes in flight,
+NEST 3.10 refuses to set ``iaf_psc_exp``'s ``I_syn_ex``/``I_syn_in``, and Brian2's restores the
+initial weights), carrying the current weights over:
 those it was built or last set with, read back from the simulator only after a run with
 plasticity on in a network with plastic projections (the only way they can move there).
 
@@ -127,10 +128,11 @@ class PyNNSimulation(Simulation):
         """End the PyNN simulation, keeping its results readable, and free PyNN for another one."""
         if self._frozen is not None:
             return
+        held, names = self._held, self._network.projections  # held: known weights (NEST reads back ~6 us each)
         self._frozen = {
             "spikes": {name: self._all_spikes(name) for name in self._network.populations},
             "traces": {key: self._live_trace(*key) for key in self._recording},
-            "weights": {name: self._live_weights(name) for name in self._network.projections},
+            "weights": {name: held[name].copy() if held is not None else self._live_weights(name) for name in names},
         }
         state = self._state()
         owner = getattr(state, _OWNER, None)
