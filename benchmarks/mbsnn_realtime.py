@@ -10,7 +10,9 @@ Input: the first seconds of the moving part of a real recording
 spikes of the same statistics for 840 PNs (the paper's 8x8 mega-pixels). Times exclude
 network construction and compilation (reported separately) and a short warm-up run
 (numba's JIT, Brian2's code generation). Wall and CPU seconds are both printed: this
-machine's cores may be shared, and CPU time is what one core spent.
+machine's cores may be shared, and CPU time is what one core spent. Synaptic events per CPU
+second (``statistics()``: every spike times its neuron's outgoing connections) are printed
+for the backends that count them.
 
 Usage::
 
@@ -81,12 +83,24 @@ def measure(sim: nv.Simulation, spikes: PNSpikes, seconds: float) -> dict[str, A
     """Warm up, then time learning over the first ``seconds`` of ``spikes``."""
     present(sim, spikes.window(0.0, min(20.0, spikes.duration_ms)), learn=True)
     piece = spikes.window(0.0, min(seconds * 1000.0, spikes.duration_ms))
+    before = _events(sim)
     wall0, cpu0 = time.perf_counter(), time.process_time()
     response = present(sim, piece, learn=True, progress="simulating")
     wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
     simulated = response.duration_ms / 1000.0
+    after = _events(sim)
+    events = None if before is None or after is None else after - before
     return {"simulated_s": simulated, "wall_s": wall, "cpu_s": cpu, "rt_wall": simulated / wall,
-            "rt_cpu": simulated / cpu if cpu > 0 else float("inf"), "counts": response.counts}  # fmt: skip
+            "rt_cpu": simulated / cpu if cpu > 0 else float("inf"), "counts": response.counts,
+            "synaptic_events": events, "events_per_cpu_s": events / cpu if events is not None and cpu > 0 else None}  # fmt: skip
+
+
+def _events(sim: nv.Simulation) -> int | None:
+    """Synaptic events so far (``statistics()``), or ``None`` where the backend does not count them."""
+    try:
+        return int(sim.statistics()["synaptic_events"])
+    except nv.NeurovprError:
+        return None
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -130,13 +144,15 @@ def main(argv: list[str] | None = None) -> int:
             rows.append((f"brian2 ({args.brian2_target})", measure(sim, spikes, args.brian2_seconds)))
 
     print()
-    print(f"{'backend':<18}{'simulated s':>12}{'wall s':>9}{'cpu s':>9}{'RT (wall)':>11}{'RT (cpu)':>10}")
+    head = f"{'backend':<18}{'simulated s':>12}{'wall s':>9}{'cpu s':>9}{'RT (wall)':>11}{'RT (cpu)':>10}"
+    print(f"{head}{'syn. events / cpu s':>21}")
     for name, row in rows:
         if isinstance(row, str):
             print(f"{name:<18}{row}")
             continue
+        rate = "not counted" if row["events_per_cpu_s"] is None else f"{row['events_per_cpu_s']:.3g}"
         print(f"{name:<18}{row['simulated_s']:>12.3f}{row['wall_s']:>9.2f}{row['cpu_s']:>9.2f}"
-              f"{row['rt_wall']:>10.3f}x{row['rt_cpu']:>9.3f}x")  # fmt: skip
+              f"{row['rt_wall']:>10.3f}x{row['rt_cpu']:>9.3f}x{rate:>21}")  # fmt: skip
     measured = [row for _, row in rows if not isinstance(row, str)]
     if len(measured) == 2:
         ratio = measured[0]["rt_wall"] / measured[1]["rt_wall"]
