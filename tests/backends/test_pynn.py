@@ -223,6 +223,52 @@ def test_nest_spikes_equal_reference() -> None:
     assert {k: stats["pynn"][k] for k in stats["reference"]} == stats["reference"] and stats["pynn"]["synaptic_events"] > 0
 
 
+def test_nest_static_connections_made_from_arrays_are_the_requested_ones() -> None:
+    """Static projections on NEST are made by one nest.Connect of arrays: every pair (repeats with other
+    delays included), its weight (inhibitory conductances too) and delay as requested; the same spikes
+    as the reference; close() keeps the weights last set."""
+    _needs(NEST)
+    import nest
+
+    reference = pytest.importorskip("neurovpr.backends.reference").BACKEND
+    rng = np.random.default_rng(7)
+    net = nv.Network("arrays")
+    trains = [np.unique(np.round(rng.uniform(0.0, 60.0, 12), 1)) for _ in range(6)]
+    net.add_population("src", 6, nv.SpikeSourceArray.from_lists(trains))
+    net.add_population("cur", 4, nv.IF_curr_exp(tau_refrac=1.0))
+    net.add_population("cond", 3, nv.IF_cond_exp(tau_refrac=1.0))
+    # (pre, post, weight, delay): pairs repeated with other delays, onto both receptors of both cell kinds
+    rows = np.array([[0, 0, 2.0, 1.0], [0, 0, 1.5, 2.5], [1, 2, 3.0, 0.5], [5, 3, 2.2, 4.0], [2, 1, 2.6, 1.0], [2, 1, 0.4, 1.2]])
+    net.connect("src", "cur", nv.FromListConnector(rows), nv.StaticSynapse(weight=1.0, delay=1.0))
+    net.connect("src", "cond", nv.FromListConnector(rows[:, :4] % [6, 3, 10, 10] * [1, 1, 0.01, 1]), nv.StaticSynapse())
+    net.connect("cur", "cond", nv.AllToAllConnector(), nv.StaticSynapse(weight=0.02, delay=0.7), receptor_type="inhibitory")
+    net.connect("cond", "cur", nv.AllToAllConnector(), nv.StaticSynapse(weight=0.8, delay=0.3), receptor_type="inhibitory")
+    spikes = {}
+    for backend in (reference, NEST):
+        sim = backend.compile(net, dt=0.1, seed=2)
+        sim.run(80.0)
+        spikes[backend.name] = {pop: sim.spike_trains(pop) for pop in ("cur", "cond")}
+        if backend is not NEST:
+            continue
+        for name in net.projections:
+            want = expand(net, name, dt=0.1, seed=2)
+            pre, post = sim.connections(name)
+            np.testing.assert_array_equal(pre, want.pre)
+            np.testing.assert_array_equal(post, want.post)
+            np.testing.assert_allclose(sim.weights(name, format="list"), want.weight, rtol=1e-12, err_msg=name)
+        made = nest.GetConnections(synapse_model=sim._built.parts[0].projection.nest_synapse_model)
+        assert len(made) == sum(len(expand(net, name, dt=0.1, seed=2).pre) for name in net.projections)
+        delays = sorted(np.atleast_1d(nest.GetConnections(target=sim._built.populations["cur"].node_collection).get("delay")))
+        assert sorted(np.round(delays, 6)) == sorted(np.round(np.concatenate([rows[:, 3], np.full(12, 0.3)]), 6))
+        sim.set_weights("cond->cur", np.full(12, 0.5))
+        sim.close()
+        np.testing.assert_array_equal(sim.weights("cond->cur"), np.full((3, 4), 0.5))
+    assert spikes["reference"]["cur"][0].size > 3
+    for pop in ("cur", "cond"):
+        np.testing.assert_array_equal(spikes["pynn"][pop][1], spikes["reference"][pop][1], err_msg=pop)
+        np.testing.assert_allclose(spikes["pynn"][pop][0], spikes["reference"][pop][0], rtol=0, atol=1e-9)
+
+
 def test_nest_threads_give_the_same_spikes_and_weights() -> None:
     """``threads=2`` runs NEST on two threads with the one-thread run's spikes and learned weights."""
     _needs(NEST)
