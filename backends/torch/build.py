@@ -187,7 +187,7 @@ class BatchState:
         self.buf = torch.zeros(2 * self.ring * batch * n, dtype=dtype, device=dev)
         self.counts = torch.zeros((batch, n), dtype=torch.int64, device=dev)
         self.scratch = [Scratch.of(batch, g.hi - g.lo, dtype, dev) for g in net.groups]
-        self._one = torch.ones((), dtype=torch.int64, device=dev)
+        self._ones = torch.ones(0, dtype=torch.int64, device=dev)
         self._targets: dict[str, torch.Tensor] = {}
         self._range = torch.arange(0, device=dev)
         self.synaptic_events = 0
@@ -245,6 +245,12 @@ class BatchState:
             self._targets[population] = fan.receptor * (self.ring * self.batch * self.net.n) + fan.post
         return self._targets[population]
 
+    def _ones_of(self, total: int) -> torch.Tensor:
+        """``total`` ones (int64; a view of one block kept for the batch)."""
+        if self._ones.numel() < total:
+            self._ones = torch.ones(max(total, 2 * self._ones.numel()), dtype=torch.int64, device=self._ones.device)
+        return self._ones[:total]
+
     def _iota(self, total: int) -> torch.Tensor:
         """``0 .. total - 1`` (a view of one range kept for the batch)."""
         if self._range.numel() < total:
@@ -289,7 +295,7 @@ class BatchState:
                 if item.numel():
                     flat = item * self.net.n + lo + neuron
                     reset_spiking(self.v, self.refr, ica, flat, neuron + (lo - g.lo), g.p, g.refrac_total)
-                    self.counts.view(-1).index_add_(0, flat, self._one.expand(flat.numel()))
+                    self.counts.view(-1).index_add_(0, flat, self._ones_of(flat.numel()))
                     self.emit(name, item, neuron, j + 1)
                 out.append((name, own))
         return out
