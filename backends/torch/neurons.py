@@ -11,8 +11,8 @@ anyway and sets them with :func:`reset_spiking` instead of a pass over the whole
 The arithmetic of every value is the reference backend's, operation for operation (a sum
 may have its two terms swapped, which changes no bit); what is chosen here is how little
 each step costs on a CPU, where every tensor operation reads and writes the whole
-``(batch, neurons)`` block, and a new block of that size is memory the allocator maps and
-the processor faults in again at every step:
+``(batch, neurons)`` block (and allocating a new block for each result costs more than
+reusing one):
 
 - every intermediate is written into the group's :class:`Scratch` (allocated once per batch)
   or into the state itself, with ``out=`` and in-place operations;
@@ -46,19 +46,18 @@ def flush_below(dtype: torch.dtype) -> float:
 
 @dataclass
 class Scratch:
-    """The working memory of one group's step for a batch: three value blocks, two masks, one counter block."""
+    """The working memory of one group's step for a batch: three value blocks and two masks."""
 
     a: torch.Tensor
     b: torch.Tensor
     c: torch.Tensor
     mask: torch.Tensor
     spikes: torch.Tensor
-    count: torch.Tensor
 
     @staticmethod
     def bytes_per(width: int) -> int:
         """Bytes per item and neuron for values of ``width`` bytes."""
-        return 3 * width + 2 + 4
+        return 3 * width + 2
 
     @classmethod
     def of(cls, batch: int, n: int, dtype: torch.dtype, device: torch.device) -> Scratch:
@@ -67,10 +66,7 @@ class Scratch:
         def block(kind: torch.dtype) -> torch.Tensor:
             return torch.empty((batch, n), dtype=kind, device=device)
 
-        return cls(
-            a=block(dtype), b=block(dtype), c=block(dtype), mask=block(torch.bool), spikes=block(torch.bool),
-            count=block(torch.int32),
-        )  # fmt: skip
+        return cls(a=block(dtype), b=block(dtype), c=block(dtype), mask=block(torch.bool), spikes=block(torch.bool))
 
 
 def _decay(x: torch.Tensor, factor: torch.Tensor, below: float) -> None:
