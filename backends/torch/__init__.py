@@ -21,7 +21,7 @@ Options of ``nv.compile(..., backend="torch", ...)``:
   membrane to about 1e-6 relative (some 1e-5 mV): spikes near threshold may move by a step
   or appear/disappear, so counts agree statistically, not spike for spike.
 - ``batch_size``: items simulated at once (default 256); larger batches amortise the
-  per-step overhead and need ``(2 * ring + 8) * batch_size * neurons`` values of memory,
+  per-step overhead and need about ``(2 * ring + 10) * batch_size * neurons`` values of memory,
   plus the source drive's window of coming steps (about 64 MiB; more when the longest
   source delay alone needs more); both are checked against the memory limit before a batch.
 - ``threads``: torch's intra-op CPU threads while this simulation runs (default 1: the
