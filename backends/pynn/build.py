@@ -1,9 +1,10 @@
 """Build a :class:`~.translation.NetworkPlan` with PyNN on NEST or Brian2.
 
 The PyNN objects are standard cell types, ``FromListConnector`` projections and
-``StaticSynapse`` / ``STDPMechanism``; on NEST a static projection's connections are made
-by one ``nest.Connect`` of arrays with the values PyNN would pass (:func:`_connect_nest_arrays`;
-PyNN's own connector makes them one target at a time). Where a simulator's own convention differs
+``StaticSynapse`` / ``STDPMechanism``; a static projection's connections are made by one
+``nest.Connect`` or ``Synapses.connect`` of arrays with the values PyNN would set
+(:func:`_connect_nest_arrays`, :func:`_connect_brian2_arrays`; PyNN's own connector makes them one
+target at a time). Where a simulator's own convention differs
 from the IR semantics, the build adjusts native settings after PyNN has created the
 objects (see each function); the documented differences that remain are listed in
 this package's README.md.
@@ -285,21 +286,41 @@ def _connect_nest_arrays(projection: Any, part: PartPlan, weights: np.ndarray) -
     projection._simulator.state.stale_connection_cache = True
 
 
+def _connect_brian2_arrays(projection: Any, part: PartPlan, weights_si: np.ndarray, dt: float) -> None:
+    """Make a static projection's synapses on pyNN.brian2 with one ``Synapses.connect`` of index arrays.
+
+    pyNN.brian2 connects a ``FromListConnector`` one postsynaptic neuron at a time and sets each
+    synapse's weight and delay one by one in Python (minutes for 10^5 synapses). This makes the
+    same synapses (Brian2 numbers repeated pairs itself, PyNN asked for ``synapse_number``) and
+    sets the values PyNN would: ``weights_si`` (PyNN's weights in Brian2's base units, as
+    :meth:`.simulation.PyNNSimulation` writes them) and the delays rounded to whole steps; a
+    static synapse has no other variable.
+    """
+    syn = projection._brian2_synapses[0][0]
+    syn.connect(i=part.pre, j=part.post)
+    syn.weight_[:] = weights_si
+    syn.delay_[:] = np.round(part.delay / dt) * dt / 1000.0
+    projection._n_connections += part.pre.size
+
+
 def _create_part(built: Built, plan: NetworkPlan, part: PartPlan, ir_weights: np.ndarray, check: bool) -> BuiltPart:
     sim = built.sim
     weights = to_pynn_weights(part.mode, ir_weights)
     pre = built.populations[part.pre_population]
     post = built.populations[part.post_population]
-    arrays = _nest_arrays(built, part, post) and part.pre.size > 0
+    static = part.synapse.kind == "StaticSynapse" and part.pre.size > 0
+    arrays = _nest_arrays(built, part, post) if built.simulator == "nest" else static
     # with arrays, PyNN creates the projection empty and the connections are made below
     rows = np.zeros((0, 4)) if arrays else np.column_stack([part.pre, part.post, weights, part.delay])
     connector = sim.FromListConnector(rows, column_names=["weight", "delay"])
     projection = sim.Projection(
         pre, post, connector, _synapse_type(built, part), receptor_type=part.receptor_type, label=part.label
     )
-    if arrays:
-        _connect_nest_arrays(projection, part, weights)
     post_plan = plan.populations[part.post_population]
+    if arrays and built.simulator == "nest":
+        _connect_nest_arrays(projection, part, weights)
+    elif arrays:
+        _connect_brian2_arrays(projection, part, weights * _BRIAN2_SCALE[post_plan.conductance_based], plan.dt)
     if built.simulator == "nest":
         inhibitory_cond = part.receptor_type == "inhibitory" and post_plan.conductance_based
         bp = BuiltPart(plan=part, projection=projection, pynn_sign=-1000.0 if inhibitory_cond else 1000.0)
