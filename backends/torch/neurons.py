@@ -18,7 +18,16 @@ reusing one):
   or into the state itself, with ``out=`` and in-place operations;
 - the flush is one ``hardshrink`` (it keeps ``x`` where ``|x|`` exceeds the largest number
   below :data:`FLUSH`, i.e. where ``|x| >= FLUSH``);
-- "no conductance" is one ``logical_or`` of the two synaptic states;
+- a choice between two values per neuron (held or free membrane, with or without
+  conductance) is ``torch.lerp`` with a weight of exactly 0 or 1, the condition written as
+  0/1 values of the state's dtype (counters clamped, conductances compared): for finite
+  values ``lerp`` returns one of the two exactly
+  (its two formulas multiply the difference by an exact 0), and both it and a comparison
+  that writes numbers are vectorised on this CPU build, where ``where`` and a comparison that
+  writes booleans run as scalar loops, several times slower. Measured on the Modular SNN
+  module (batch of 100, idle): ``lerp`` 9 % faster per step in float32, 2 % slower in float64,
+  so float64 keeps ``where``, as does a group with a neuron without leak (whose membrane with
+  conductances is ``0 / 0`` where there is none);
 - the step counters are integers, counted down with a clamp;
 - the reset touches the spiking neurons only (:func:`reset_spiking`).
 
@@ -46,18 +55,19 @@ def flush_below(dtype: torch.dtype) -> float:
 
 @dataclass
 class Scratch:
-    """The working memory of one group's step for a batch: three value blocks and two masks."""
+    """The working memory of one group's step for a batch: four value blocks and two masks."""
 
     a: torch.Tensor
     b: torch.Tensor
     c: torch.Tensor
+    d: torch.Tensor
     mask: torch.Tensor
     spikes: torch.Tensor
 
     @staticmethod
     def bytes_per(width: int) -> int:
         """Bytes per item and neuron for values of ``width`` bytes."""
-        return 3 * width + 2
+        return 4 * width + 2
 
     @classmethod
     def of(cls, batch: int, n: int, dtype: torch.dtype, device: torch.device) -> Scratch:
@@ -66,7 +76,9 @@ class Scratch:
         def block(kind: torch.dtype) -> torch.Tensor:
             return torch.empty((batch, n), dtype=kind, device=device)
 
-        return cls(a=block(dtype), b=block(dtype), c=block(dtype), mask=block(torch.bool), spikes=block(torch.bool))
+        return cls(
+            a=block(dtype), b=block(dtype), c=block(dtype), d=block(dtype), mask=block(torch.bool), spikes=block(torch.bool)
+        )
 
 
 def _decay(x: torch.Tensor, factor: torch.Tensor, below: float) -> None:
@@ -83,17 +95,21 @@ def _spikes(v: torch.Tensor, refr: torch.Tensor, threshold: torch.Tensor, s: Scr
 
 def current_step(
     v: torch.Tensor, ie: torch.Tensor, ii: torch.Tensor, ica: torch.Tensor, refr: torch.Tensor,
-    p: dict[str, torch.Tensor], calcium: bool, below: float, s: Scratch,
+    p: dict[str, torch.Tensor], calcium: bool, below: float, s: Scratch, lerp: bool,
 ) -> torch.Tensor:  # fmt: skip
     """Advance current-based neurons (``IF_curr_exp``, ``IF_curr_exp_ca2_adaptive``) one step; their spikes.
 
-    ``below`` is :func:`flush_below` of the state's dtype; ``s`` the group's :class:`Scratch`.
+    ``below`` is :func:`flush_below` of the state's dtype; ``s`` the group's :class:`Scratch`;
+    ``lerp``: choose between two membranes with ``torch.lerp`` rather than ``torch.where``.
     """
     # rest + (v - rest) * p22 + ie * p21e - ii * p21i - ica * p21ca + i_offset * p20, in that order
     moved = torch.sub(v, p["v_rest"], out=s.a).mul_(p["p22"]).add_(p["v_rest"])
     moved.add_(torch.mul(ie, p["p21e"], out=s.b)).sub_(torch.mul(ii, p["p21i"], out=s.b))
     moved.sub_(torch.mul(ica, p["p21ca"], out=s.b)).add_(p["i_offset_x_p20"])
-    torch.where(torch.gt(refr, 0, out=s.mask), v, moved, out=v)
+    if lerp:  # held (counter > 0): v, else moved
+        torch.lerp(moved, v, s.c.copy_(refr).clamp_(max=1.0), out=v)
+    else:
+        torch.where(torch.gt(refr, 0, out=s.mask), v, moved, out=v)
     _decay(ie, p["p11e"], below)
     _decay(ii, p["p11i"], below)
     if calcium:
@@ -103,13 +119,15 @@ def current_step(
 
 def conductance_step(
     v: torch.Tensor, ie: torch.Tensor, ii: torch.Tensor, refr: torch.Tensor,
-    p: dict[str, torch.Tensor], dt: float, below: float, s: Scratch,
+    p: dict[str, torch.Tensor], dt: float, below: float, s: Scratch, lerp: bool,
 ) -> torch.Tensor:  # fmt: skip
     """Advance conductance-based neurons (``IF_cond_exp``, ``IF_cond_exp_adaptive``) one step.
 
     Their threshold is ``p["v_thresh_theta"]``: ``v_thresh`` plus the adaptive threshold's
     fixed (learned) value. ``below`` is :func:`flush_below` of the state's dtype; ``s`` the
-    group's :class:`Scratch`.
+    group's :class:`Scratch`; ``lerp``: choose between two membranes with ``torch.lerp``
+    rather than ``torch.where`` (only where every neuron of the group has a leak, ``gl > 0``,
+    so that the membrane with conductances is finite everywhere).
     """
     # leak = rest + (v - rest) * p22 + i_offset * p20;
     # v_inf = (gl * rest + ge * e_rev_e + gi * e_rev_i + i_offset) / gt with gt = gl + ge + gi, ge = ie * fe, gi = ii * fi;
@@ -121,8 +139,13 @@ def conductance_step(
     factor = gt.mul_(-dt).div_(p["cm"]).exp_()
     moved = torch.sub(v, v_inf, out=s.b).mul_(factor).add_(v_inf)
     leak = torch.sub(v, p["v_rest"], out=s.c).mul_(p["p22"]).add_(p["v_rest"]).add_(p["i_offset_p20"])
-    free = torch.where(torch.logical_or(ie, ii, out=s.mask), moved, leak, out=s.a)
-    torch.where(torch.gt(refr, p["lock_steps"], out=s.mask), v, free, out=v)
+    if lerp:  # 1 where either conductance is not 0: moved, else the leak; held (counter past the lockout): v
+        some = torch.maximum(torch.ne(ie, 0.0, out=s.d), torch.ne(ii, 0.0, out=s.a), out=s.d)
+        free = torch.lerp(leak, moved, some, out=s.c)
+        torch.lerp(free, v, torch.sub(refr, p["lock_steps"], out=s.d).clamp_(0.0, 1.0), out=v)
+    else:
+        free = torch.where(torch.logical_or(ie, ii, out=s.mask), moved, leak, out=s.c)
+        torch.where(torch.gt(refr, p["lock_steps"], out=s.mask), v, free, out=v)
     _decay(ie, p["p11e"], below)
     _decay(ii, p["p11i"], below)
     return _spikes(v, refr, p["v_thresh_theta"], s)

@@ -71,6 +71,25 @@ def test_float32_counts_stay_close_to_float64() -> None:
     assert abs(int(single.counts["maps"].sum()) - int(total)) <= 0.02 * total
 
 
+@pytest.mark.parametrize("build", [conv_current, lambda: diehl_cook_like(poisson=False)], ids=["current", "conductance"])
+def test_float32_membrane_choice_by_lerp_equals_where(build) -> None:
+    """In float32 the step chooses between membranes with lerp (weights exactly 0 or 1); the same spikes and
+    membranes as with where."""
+    source, n_in = ("image", 72) if build is conv_current else ("pixels", 30)
+    items = [{source: s} for s in array_items(3, n_in, duration=40.0, rate_hz=300.0, seed=5)]
+    runs = []
+    for lerp in (True, False):
+        sim = nv.compile(build(), backend="torch", dt=0.1, seed=2, dtype="float32")
+        name = [p for p in sim.network.populations if not sim.network.populations[p].is_source][-1]
+        sim.record(name, "v")
+        sim._net.lerp = lerp  # the choice the backend makes for float32; False is float64's
+        runs.append(sim.run_batch(40.0, items, spike_trains=True))
+    assert runs[0].counts[name].sum() > 0
+    _assert_same_spikes(runs[0], runs[1])
+    for key in runs[0].traces:
+        np.testing.assert_array_equal(runs[0].traces[key], runs[1].traces[key])
+
+
 def test_options_and_refusals() -> None:
     import torch
 
