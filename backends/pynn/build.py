@@ -238,14 +238,17 @@ def _match_order(part: PartPlan, pre: np.ndarray, post: np.ndarray, delay: np.nd
     return order
 
 
-def _nest_arrays(built: Built, part: PartPlan, post_pop: Any) -> bool:
-    """Whether the part is connected by :func:`_connect_nest_arrays` (NEST, static synapses, a standard cell)."""
+def _by_arrays(built: Built, part: PartPlan, post_pop: Any) -> bool:
+    """Whether the part's connections are made from arrays (:func:`_connect_nest_arrays`, :func:`_connect_brian2_arrays`).
+
+    Static synapses with at least one connection; on NEST onto a standard cell type (PyNN's
+    per-target path adds a receptor type or a receptor scale otherwise).
+    """
+    if part.synapse.kind != "StaticSynapse" or part.pre.size == 0:
+        return False
     celltype = post_pop.celltype
-    return (
-        built.simulator == "nest"
-        and part.synapse.kind == "StaticSynapse"
-        and bool(getattr(celltype, "standard_receptor_type", False))
-        and not hasattr(celltype, "receptor_scale")
+    return built.simulator == "brian2" or (
+        bool(getattr(celltype, "standard_receptor_type", False)) and not hasattr(celltype, "receptor_scale")
     )
 
 
@@ -308,8 +311,7 @@ def _create_part(built: Built, plan: NetworkPlan, part: PartPlan, ir_weights: np
     weights = to_pynn_weights(part.mode, ir_weights)
     pre = built.populations[part.pre_population]
     post = built.populations[part.post_population]
-    static = part.synapse.kind == "StaticSynapse" and part.pre.size > 0
-    arrays = _nest_arrays(built, part, post) if built.simulator == "nest" else static
+    arrays = _by_arrays(built, part, post)
     # with arrays, PyNN creates the projection empty and the connections are made below
     rows = np.zeros((0, 4)) if arrays else np.column_stack([part.pre, part.post, weights, part.delay])
     connector = sim.FromListConnector(rows, column_names=["weight", "delay"])

@@ -53,7 +53,7 @@ from .build import (
     time_offset,
 )
 from .capabilities import Simulator
-from .translation import connection_degrees, from_pynn_weights, to_pynn_weights, translate
+from .translation import connection_degrees, deferred_potentiation, from_pynn_weights, to_pynn_weights, translate
 
 __all__ = ["PyNNSimulation"]
 
@@ -464,40 +464,17 @@ class PyNNSimulation(Simulation):
         NEST's ``stdp_synapse`` applies the potentiation of postsynaptic spikes when
         the synapse's next presynaptic spike arrives; the IR applies it at the
         postsynaptic spike. This adds, for reading, the potentiation of every
-        postsynaptic spike since each synapse's last presynaptic spike.
+        postsynaptic spike since each synapse's last presynaptic spike
+        (:func:`.translation.deferred_potentiation`, from NEST's ``Kplus`` traces).
         """
         plan = part.plan
-        assert plan.synapse.timing is not None and plan.synapse.weight_dependence is not None
-        tau_plus = plan.synapse.timing[1]["tau_plus"]
-        w_max = plan.synapse.weight_dependence[1]["w_max"]
-        multiplicative = plan.synapse.weight_dependence[0] == "MultiplicativeWeightDependence"
         with quiet():
             conns = nest_connections(part)
             order, _ = nest_order(part, conns, self._dt)
             kplus_native = np.asarray(np.atleast_1d(conns.get("Kplus")), dtype=np.float64)
         kplus = np.empty(kplus_native.size)
         kplus[order] = kplus_native
-        lam = nest_lambdas(part, plan.delay)
-        pre_t, pre_i = self._all_spikes(plan.pre_population)
-        post_t, post_i = self._all_spikes(plan.post_population)
-        n_pre = self._network.populations[plan.pre_population].size
-        t_last = np.full(n_pre, -np.inf)
-        np.maximum.at(t_last, pre_i, pre_t)
-        out = np.abs(weights) if plan.mode == "negate" else weights.copy()
-        candidates = np.flatnonzero((kplus > 0) & (lam > 0) & np.isfinite(t_last[plan.pre]))
-        by_post = np.argsort(post_i, kind="stable")
-        starts = np.searchsorted(post_i[by_post], np.arange(self._network.populations[plan.post_population].size + 1))
-        for j in np.unique(plan.post[candidates]):
-            spikes = post_t[by_post[starts[j] : starts[j + 1]]]
-            if spikes.size == 0:
-                continue
-            conns = candidates[plan.post[candidates] == j]
-            origin = t_last[plan.pre[conns]] - plan.delay[conns]
-            lag = origin[:, None] - spikes[None, :]
-            kick = np.where(lag < 0, kplus[conns, None] * np.exp(lag / tau_plus), 0.0) * lam[conns, None]
-            if multiplicative:
-                remain = np.prod(np.maximum(1.0 - kick, 0.0), axis=1)
-                out[conns] = w_max - (w_max - out[conns]) * remain
-            else:
-                out[conns] = np.minimum(out[conns] + w_max * kick.sum(axis=1), w_max)
-        return -out if plan.mode == "negate" else out
+        pre = self._all_spikes(plan.pre_population)
+        post = self._all_spikes(plan.post_population)
+        sizes = (self._network.populations[plan.pre_population].size, self._network.populations[plan.post_population].size)
+        return deferred_potentiation(plan, weights, kplus, nest_lambdas(part, plan.delay), pre, post, sizes)

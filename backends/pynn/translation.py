@@ -36,6 +36,7 @@ from neurovpr.ir.synapses import STDPMechanism
 __all__ = [
     "PopulationPlan",
     "connection_degrees",
+    "deferred_potentiation",
     "SynapsePlan",
     "PartPlan",
     "NetworkPlan",
@@ -254,3 +255,42 @@ def connection_degrees(network: Network, plan: NetworkPlan) -> dict[str, tuple[n
             out[proj.pre][1][:] += np.bincount(conns.pre, minlength=sizes[proj.pre])
             out[proj.post][2][:] += np.bincount(conns.post, minlength=sizes[proj.post])
     return out
+
+
+def deferred_potentiation(
+    plan: PartPlan, weights: np.ndarray, kplus: np.ndarray, lam: np.ndarray,
+    pre: tuple[np.ndarray, np.ndarray], post: tuple[np.ndarray, np.ndarray], sizes: tuple[int, int],
+) -> np.ndarray:  # fmt: skip
+    """IR weights of an STDP part with the potentiation NEST has not applied yet.
+
+    NEST's ``stdp_synapse`` applies the potentiation of a postsynaptic spike when the
+    synapse's next presynaptic spike arrives; the IR applies it at the postsynaptic spike.
+    ``weights`` are the part's IR weights as NEST holds them, ``kplus`` and ``lam`` its
+    connections' presynaptic traces and potentiation amplitudes (canonical order), ``pre``
+    and ``post`` the ``(times, neurons)`` of the two populations' spikes, ``sizes`` their sizes.
+    """
+    assert plan.synapse.timing is not None and plan.synapse.weight_dependence is not None
+    tau_plus = plan.synapse.timing[1]["tau_plus"]
+    w_max = plan.synapse.weight_dependence[1]["w_max"]
+    multiplicative = plan.synapse.weight_dependence[0] == "MultiplicativeWeightDependence"
+    (pre_t, pre_i), (post_t, post_i) = pre, post
+    t_last = np.full(sizes[0], -np.inf)
+    np.maximum.at(t_last, pre_i, pre_t)
+    out = np.abs(weights) if plan.mode == "negate" else weights.copy()
+    candidates = np.flatnonzero((kplus > 0) & (lam > 0) & np.isfinite(t_last[plan.pre]))
+    by_post = np.argsort(post_i, kind="stable")
+    starts = np.searchsorted(post_i[by_post], np.arange(sizes[1] + 1))
+    for j in np.unique(plan.post[candidates]):
+        spikes = post_t[by_post[starts[j] : starts[j + 1]]]
+        if spikes.size == 0:
+            continue
+        conns = candidates[plan.post[candidates] == j]
+        origin = t_last[plan.pre[conns]] - plan.delay[conns]
+        lag = origin[:, None] - spikes[None, :]
+        kick = np.where(lag < 0, kplus[conns, None] * np.exp(lag / tau_plus), 0.0) * lam[conns, None]
+        if multiplicative:
+            remain = np.prod(np.maximum(1.0 - kick, 0.0), axis=1)
+            out[conns] = w_max - (w_max - out[conns]) * remain
+        else:
+            out[conns] = np.minimum(out[conns] + w_max * kick.sum(axis=1), w_max)
+    return -out if plan.mode == "negate" else out
