@@ -22,6 +22,7 @@ nothing. Adaptive thresholds are held at their learned values (inference).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -251,14 +252,12 @@ class BatchState:
 
     def _ones_of(self, total: int) -> torch.Tensor:
         """``total`` ones (int64; a view of one block kept for the batch)."""
-        if self._ones.numel() < total:
-            self._ones = torch.ones(max(total, 2 * self._ones.numel()), dtype=torch.int64, device=self._ones.device)
+        self._ones = _at_least(self._ones, total, lambda n: torch.ones(n, dtype=torch.int64, device=self._ones.device))
         return self._ones[:total]
 
     def _iota(self, total: int) -> torch.Tensor:
         """``0 .. total - 1`` (a view of one range kept for the batch)."""
-        if self._range.numel() < total:
-            self._range = torch.arange(max(total, 2 * self._range.numel()), device=self._range.device)
+        self._range = _at_least(self._range, total, lambda n: torch.arange(n, device=self._range.device))
         return self._range[:total]
 
     def emit_dense(
@@ -313,3 +312,8 @@ class BatchState:
         sl = slice(g.lo, g.hi)
         v, ie, ii, refr = self.v[:, sl], self.isyn[0, :, sl], self.isyn[1, :, sl], self.refr[:, sl]
         return conductance_step(v, ie, ii, refr, g.p, self.dt, self.net.below, scratch, self.net.lerp and g.finite)
+
+
+def _at_least(block: torch.Tensor, total: int, make: Callable[[int], torch.Tensor]) -> torch.Tensor:
+    """``block``, or a new one from ``make(size)`` when it holds fewer than ``total`` values (at least doubling)."""
+    return block if block.numel() >= total else make(max(total, 2 * block.numel()))
