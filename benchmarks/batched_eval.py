@@ -26,7 +26,7 @@ first calls; its wall time is stored), and the ratios are printed.
 Usage (from the repository root)::
 
     python benchmarks/batched_eval.py [--queries 200] [--batch-size 256] [--threads 1] [--dtypes float64,float32]
-                                      [--locsnet-places 100] [--out DIR]
+                                      [--fuse off,on] [--locsnet-places 100] [--out DIR]
 """
 
 from __future__ import annotations
@@ -54,19 +54,22 @@ def _machine() -> str:
     return f"{platform.machine()}, {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}"
 
 
-def _torch_runs(batch_size: int, threads: int = 1, dtypes: tuple[str, ...] = ("float64",)) -> list[tuple[str, dict]]:
-    """The torch backend's runs: on the CPU and on CUDA (device None: absent), in each of ``dtypes``.
+def _torch_runs(
+    batch_size: int, threads: int = 1, dtypes: tuple[str, ...] = ("float64",), fuse: tuple[bool, ...] = (False,)
+) -> list[tuple[str, dict]]:
+    """The torch backend's runs: on the CPU and on CUDA (device None: absent), in each of ``dtypes``, eager and/or fused.
 
     The first dtype's runs are labelled ``torch-cpu`` / ``torch-cuda``, the others get the
-    dtype appended (``torch-cpu-float32``).
+    dtype appended (``torch-cpu-float32``); runs with the option ``fuse`` get ``-fused``.
     """
     import torch
 
     cuda = "cuda" if torch.cuda.is_available() else None
     return [
-        (f"torch-{name}" + ("" if k == 0 else f"-{dtype}"),
-         {"device": dev, "batch_size": batch_size, "threads": threads, "dtype": dtype})
+        (f"torch-{name}" + ("" if k == 0 else f"-{dtype}") + ("-fused" if fused else ""),
+         {"device": dev, "batch_size": batch_size, "threads": threads, "dtype": dtype, "fuse": fused})
         for k, dtype in enumerate(dtypes)
+        for fused in fuse
         for name, dev in (("cpu", "cpu"), ("cuda", cuda))
     ]  # fmt: skip
 
@@ -99,7 +102,7 @@ def modular(args: argparse.Namespace) -> dict:
     runs: dict[str, dict] = {}
     for label, backend, options in [
         ("reference", "reference", {}),
-        *[(lbl, "torch", o) for lbl, o in _torch_runs(args.batch_size, args.threads, args.dtypes)],
+        *[(lbl, "torch", o) for lbl, o in _torch_runs(args.batch_size, args.threads, args.dtypes, args.fuse)],
     ]:
         if backend == "torch" and options["device"] is None:
             runs[label] = {"measured": False, "note": "not measured: no CUDA device on this machine"}
@@ -149,7 +152,7 @@ def locsnet(args: argparse.Namespace) -> dict:
     counts: dict[str, np.ndarray] = {}
     for label, backend, options in [
         ("reference", "reference", {}),
-        *[(lbl, "torch", o) for lbl, o in _torch_runs(args.batch_size, args.threads, args.dtypes)],
+        *[(lbl, "torch", o) for lbl, o in _torch_runs(args.batch_size, args.threads, args.dtypes, args.fuse)],
     ]:
         if backend == "torch" and options["device"] is None:
             runs[label] = {"measured": False, "note": "not measured: no CUDA device on this machine"}
@@ -189,6 +192,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--batch-size", type=int, default=256, help="items the torch backend simulates at once")
     p.add_argument("--threads", type=int, default=1, help="the torch backend's CPU threads (its option threads)")
     p.add_argument("--dtypes", default="float64", help="the torch backend's dtypes to time, comma-separated (float64, float32)")
+    p.add_argument("--fuse", default="off,on", help="the torch backend's option fuse to time, comma-separated (off, on)")
     p.add_argument("--locsnet-places", type=int, default=100)
     p.add_argument("--locsnet-epochs", type=int, default=5)
     p.add_argument("--skip", default="", help="comma-separated parts to skip: modular, locsnet")
@@ -198,9 +202,14 @@ def main(argv: list[str] | None = None) -> int:
     args.dtypes = tuple(d for d in args.dtypes.split(",") if d)
     if not args.dtypes or any(d not in ("float64", "float32") for d in args.dtypes):
         p.error(f"--dtypes: float64 and/or float32, got {','.join(args.dtypes) or 'nothing'}")
+    fuse = [f for f in args.fuse.split(",") if f]
+    if not fuse or any(f not in ("off", "on") for f in fuse):
+        p.error(f"--fuse: off and/or on, got {args.fuse or 'nothing'}")
+    args.fuse = tuple(f == "on" for f in fuse)
     print(f"machine: {_machine()}", flush=True)
     record: dict = {"machine": _machine(), "batch_size": args.batch_size, "torch_threads": args.threads}
     record["torch_dtypes"] = list(args.dtypes)
+    record["torch_fuse"] = list(args.fuse)
     if "modular" not in skip:
         record["modular_snn"] = modular(args)
     if "locsnet" not in skip:

@@ -3,7 +3,8 @@
 Order within step ``j`` (the reference backend's, backends/reference/kernels.py):
 
 1. sources emit their spikes stamped ``j`` into the delay ring;
-2. the ring's slot ``j`` is added to the synaptic currents/conductances and cleared;
+2. the ring's slot ``j`` (with what sources deliver as drive, :mod:`.drive`, added to it) is
+   added to the synaptic currents/conductances and cleared;
 3. each group of consecutive populations of one membrane form: one step of
    :mod:`.neurons` (exact propagation, decays, threshold, reset, refractoriness and lockout,
    the Ca2+ jump); each population's spikes are stamped ``j + 1`` and scheduled into the ring.
@@ -11,7 +12,8 @@ Order within step ``j`` (the reference backend's, backends/reference/kernels.py)
 A spike is scheduled by looking up its population's fan-out table
 (:class:`.translation.FanOut`; look-ups by ``index_select``, which copies faster than indexing
 with a tensor) and adding every connection's weight at
-``(receptor, (stamp + delay) % ring, item, target)`` with one ``index_add_``: the work is
+``(receptor, (stamp + delay) % ring, item, target)`` with one ``scatter_add_`` (on a CPU the
+sums and order of ``index_add_``, faster): the work is
 proportional to the spikes, as in an event-driven simulator, and the same code serves
 every connector. A projection's dense blocks (:class:`.translation.DenseBlock`) are
 delivered by adding the spiking neurons' rows of the weight matrix into the ring slot
@@ -30,10 +32,11 @@ import torch
 
 from neurovpr.resources import require_memory
 
+from .fused import Kernels, kernels, pack
 from .neurons import FLUSH, Scratch, conductance_step, current_step, flush_below, reset_spiking
 from .translation import DenseBlock, Layout, NeuronGroup
 
-__all__ = ["Compiled", "BatchState", "Dense", "FLUSH"]
+__all__ = ["Compiled", "BatchState", "Dense", "FLUSH", "spiking"]
 
 
 @dataclass
@@ -52,6 +55,7 @@ class _Group:
     finite: bool  #: every neuron has a leak (gl > 0), or the group is current-based
     p: dict[str, torch.Tensor]
     refrac_total: torch.Tensor
+    packed: torch.Tensor | None = None  #: the parameters as the fused step reads them (option fuse)
 
 
 @dataclass
@@ -93,9 +97,15 @@ class Compiled:
         ``(N,)`` adaptive thresholds (0 for neurons without one).
     device, dtype
         Where and in which precision the state is computed.
+    dt
+        The time step (ms).
+    fuse
+        Advance each group with one compiled kernel (:mod:`.fused`) instead of :mod:`.neurons`.
     """
 
-    def __init__(self, layout: Layout, theta: np.ndarray, *, device: torch.device, dtype: torch.dtype) -> None:
+    def __init__(
+        self, layout: Layout, theta: np.ndarray, *, device: torch.device, dtype: torch.dtype, dt: float, fuse: bool = False
+    ) -> None:
         self.n = layout.n
         self.ring = layout.ring
         self.device = device
@@ -129,7 +139,11 @@ class Compiled:
         for g in self.groups:  # inference: the adaptive thresholds are fixed, so each threshold is summed once
             if g.conductance:
                 g.p["v_thresh_theta"] = g.p["v_thresh"] + self.theta[g.lo : g.hi]
+            if fuse:
+                g.packed = pack(g.p, g.conductance)
         self.below = flush_below(dtype)
+        #: the compiled steps (option fuse), or None: the eager steps of .neurons
+        self.kernels: Kernels | None = kernels(dt, self.below) if fuse else None
         #: choose between membranes with torch.lerp (faster in float32 on a CPU; see .neurons)
         self.lerp = dtype == torch.float32
         cat = lambda key: np.concatenate([g.params[key] for g in layout.groups]) if layout.groups else np.zeros(0)  # noqa: E731
@@ -148,6 +162,8 @@ class Compiled:
             p["gl_rest"] = t(params["gl"] * params["v_rest"])
         total = t(params["refrac"] + params["lock"], torch.int32)
         p["lock_steps"] = t(params["lock"], torch.int32)
+        p["lock_steps_f"] = t(params["lock"])  # the fused step's counters are values of the state's dtype
+        p["refrac_total_f"] = t(params["refrac"] + params["lock"])
         return _Group(
             lo=run[0].lo, hi=run[-1].hi, members=tuple((g.name, g.lo, g.hi) for g in run), conductance=conductance,
             calcium=any(g.calcium for g in run), finite=bool(np.all(params["gl"] > 0)) if conductance else True, p=p,
@@ -188,9 +204,10 @@ class BatchState:
         self.v = net.v_init.expand(batch, n).clone()
         self.isyn = torch.zeros((2, batch, n), dtype=dtype, device=dev)
         self.ica = net.ica_init.expand(batch, n).clone()
-        self.refr = torch.zeros((batch, n), dtype=torch.int32, device=dev)
+        # the fused step (.fused) counts in the state's dtype, the eager one in integers
+        self.refr = torch.zeros((batch, n), dtype=dtype if net.kernels else torch.int32, device=dev)
         self.buf = torch.zeros(2 * self.ring * batch * n, dtype=dtype, device=dev)
-        self.counts = torch.zeros((batch, n), dtype=torch.int64, device=dev)
+        self.counts = torch.zeros((batch, n), dtype=dtype if net.kernels else torch.int64, device=dev)
         self.scratch = [Scratch.of(batch, g.hi - g.lo, dtype, dev) for g in net.groups]
         self._ones = torch.ones(0, dtype=torch.int64, device=dev)
         self._targets: dict[str, torch.Tensor] = {}
@@ -239,7 +256,7 @@ class BatchState:
         slot = torch.remainder(torch.index_select(fan.delay, 0, conn) + stamp, self.ring)
         flat = slot.mul_(self.batch * self.net.n).add_(rows.mul_(self.net.n))
         flat += torch.index_select(self._target(population, fan), 0, conn)
-        self.buf.index_add_(0, flat, torch.index_select(fan.weight, 0, conn))
+        self.buf.scatter_add_(0, flat, torch.index_select(fan.weight, 0, conn))  # index_add_'s sums and order, faster
 
     def _target(self, population: str, fan: _Fan) -> torch.Tensor:
         """Per connection of ``population``'s fan-out, the fixed part of its ring index.
@@ -276,29 +293,53 @@ class BatchState:
         else:
             ring[(stamp + block.delay) % self.ring].index_put_((item,), rows, accumulate=True)
 
-    def deliver(self, j: int) -> None:
-        """Add the arrivals of step ``j`` to the synaptic state and clear their ring slot."""
-        ring = self.ring
-        slots = self.buf.view(2, ring, self.batch, self.net.n)[:, j % ring]
-        self.isyn += slots
-        slots.zero_()
+    def slot(self, j: int) -> torch.Tensor:
+        """The ``(2, batch, N)`` arrivals at step ``j`` (the delay ring's slot; receptor first)."""
+        return self.buf.view(2, self.ring, self.batch, self.net.n)[:, j % self.ring]
 
     def update(self, j: int) -> list[tuple[str, torch.Tensor]]:
-        """Advance every population over step ``j``; each population's ``(batch, size)`` spikes (scheduled, counted).
+        """Add the arrivals of step ``j`` (:meth:`slot`, then cleared) and advance every population over the step.
 
-        The spikes are views of the groups' scratch: valid until the next step.
+        Returns each population's ``(batch, size)`` spikes (scheduled, counted): views of the
+        groups' scratch, valid until the next step.
         """
+        if self.net.kernels is not None:
+            return self._update_fused(j, self.net.kernels)
+        slot = self.slot(j)
+        self.isyn += slot
+        slot.zero_()
         out = []
         for g, scratch in zip(self.net.groups, self.scratch, strict=True):
             spikes = self._conductance(g, scratch) if g.conductance else self._current(g, scratch)
             ica = self.ica if g.calcium else None
             for name, lo, hi in g.members:
                 own = spikes[:, lo - g.lo : hi - g.lo]
-                item, neuron = torch.nonzero(own, as_tuple=True)
+                item, neuron = spiking(own)
                 if item.numel():
                     flat = item * self.net.n + lo + neuron
                     reset_spiking(self.v, self.refr, ica, flat, neuron + (lo - g.lo), g.p, g.refrac_total)
                     self.counts.view(-1).index_add_(0, flat, self._ones_of(flat.numel()))
+                    self.emit(name, item, neuron, j + 1)
+                out.append((name, own))
+        return out
+
+    def _update_fused(self, j: int, k: Kernels) -> list[tuple[str, torch.Tensor]]:
+        """:meth:`update` with the compiled steps, which reset the spiking neurons and count their spikes themselves."""
+        out = []
+        slot = self.slot(j)
+        for g in self.net.groups:
+            sl = slice(g.lo, g.hi)
+            v, refr, counts = self.v[:, sl], self.refr[:, sl], self.counts[:, sl]
+            ie, ii = self.isyn[0, :, sl], self.isyn[1, :, sl]
+            arrive_e, arrive_i = slot[0, :, sl], slot[1, :, sl]
+            if g.conductance:
+                spikes = k.conductance(v, ie, ii, arrive_e, arrive_i, refr, counts, g.packed)
+            else:
+                spikes = k.current(v, ie, ii, arrive_e, arrive_i, self.ica[:, sl], refr, counts, g.packed, g.calcium)
+            for name, lo, hi in g.members:
+                own = spikes[:, lo - g.lo : hi - g.lo]
+                item, neuron = spiking(own)
+                if item.numel():
                     self.emit(name, item, neuron, j + 1)
                 out.append((name, own))
         return out
@@ -312,6 +353,19 @@ class BatchState:
         sl = slice(g.lo, g.hi)
         v, ie, ii, refr = self.v[:, sl], self.isyn[0, :, sl], self.isyn[1, :, sl], self.refr[:, sl]
         return conductance_step(v, ie, ii, refr, g.p, self.dt, self.net.below, scratch, self.net.lerp and g.finite)
+
+
+def spiking(spikes: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:
+    """The ``(item, neuron)`` pairs where ``spikes`` (``(batch, n)``, boolean or 0/1) is set, in ``torch.nonzero``'s order.
+
+    Found in two levels, the items with a spike (a sum per item), then the neurons in those
+    items' rows only: spikes are rare in a step, and ``torch.nonzero`` over the whole block
+    costs several times a sum on a CPU (Modular SNN module, batch of 100: about 100 us
+    against 30 us).
+    """
+    items = torch.nonzero(spikes.sum(1)).view(-1)
+    rows, neurons = torch.nonzero(torch.index_select(spikes, 0, items), as_tuple=True)
+    return torch.index_select(items, 0, rows), neurons
 
 
 def _at_least(block: torch.Tensor, total: int, make: Callable[[int], torch.Tensor]) -> torch.Tensor:

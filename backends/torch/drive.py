@@ -4,14 +4,14 @@ The spikes of source populations (spike arrays, and Poisson trains drawn by the 
 kit) are known before a run starts, so their arrivals are computed a chunk of source steps
 at a time, with a few large operations, into a window of the coming steps (``chunk`` plus
 the longest source delay): per item, rows are arrival steps, columns the target columns of
-each receptor. The step loop adds one step's rows to the synaptic state.
+each receptor. The step loop adds one step's rows to that step's arrivals (the delay ring's slot).
 
 - A dense block (:class:`.build.Dense`: one delay, a dense weight matrix) adds ``S @ W``,
   with ``S`` the sparse ``(arrival step x item, presynaptic neuron)`` matrix of spike counts.
 - A source's fan-out table whose rows pad to a rectangle without doubling it (all-to-all
   with per-synapse delays, convolutions) is padded once to ``(pre, degree)`` tables of
   weight and of column offset (``delay x row length + column``); a chunk's spikes are then
-  delivered by one gather of their rows and one ``index_add_``.
+  delivered by one gather of their rows and one ``scatter_add_``.
 - Other fan-out tables stay on the delay ring (:meth:`.build.BatchState.emit`).
 
 The window is bounded by :data:`WINDOW_BYTES` (the chunk shrinks to one step, never the
@@ -33,7 +33,7 @@ __all__ = ["SourceDrive", "WINDOW_BYTES"]
 
 #: The memory the window of coming steps aims to stay within.
 WINDOW_BYTES = 64 * 2**20
-#: The most (spike, connection) pairs delivered by one ``index_add_`` (bounds its temporaries).
+#: The most (spike, connection) pairs delivered by one ``scatter_add_`` (bounds its temporaries).
 _PAIRS = 2**21
 
 
@@ -134,15 +134,15 @@ class SourceDrive:
         self._pairs: tuple[torch.Tensor, torch.Tensor] | None = None
         self._start = first
 
-    def add(self, isyn: torch.Tensor, j: int) -> None:
-        """Add the drive arriving at step ``j`` to ``isyn`` (``(2, batch, N)``); steps come in order."""
+    def add(self, arrivals: torch.Tensor, j: int) -> None:
+        """Add the drive arriving at step ``j`` to ``arrivals`` (``(2, batch, N)``: the ring's slot ``j``); steps in order."""
         if not self.width:
             return
         if self._window is None or j >= self._start + self.chunk:
             self._advance(j)
         row = self._window[:, j - self._start]
         for r, (lo, hi, col) in self.spans.items():
-            isyn[r, :, lo:hi] += row[:, col : col + hi - lo]
+            arrivals[r, :, lo:hi] += row[:, col : col + hi - lo]
 
     def finish(self, state: BatchState) -> None:
         """Add the arrivals after the run's last step (still in the window) to ``state``'s delay ring."""
@@ -185,27 +185,28 @@ class SourceDrive:
                 self._scatter(window.view(-1), self.padded[name], base, who)
 
     def _scatter(self, flat: torch.Tensor, pad: _Padded, base: np.ndarray, neurons: np.ndarray) -> None:
-        """``index_add_`` every connection of the given spikes into the window (at most :data:`_PAIRS` at a time).
+        """Add every connection of the given spikes into the window (at most :data:`_PAIRS` at a time).
 
         The spikes' rows of the padded tables are gathered with ``index_select`` (a copy of whole
-        rows, about 2.5 times faster here than indexing with a tensor) into buffers kept for the run.
+        rows, about 2.5 times faster here than indexing with a tensor) into buffers kept for the run,
+        and added with ``scatter_add_``: on a CPU the same sums in the same order as
+        ``index_add_`` (bit for bit), about 2.5 times faster per connection here.
         """
         dev = self.net.device
-        kind = torch.int32 if flat.numel() < 2**31 else torch.int64  # half the index traffic where it fits
-        offset = pad.offsets(self.width, kind)
+        offset = pad.offsets(self.width, torch.int64)  # scatter_add_ takes int64 indices
         step = max(1, _PAIRS // max(pad.degree, 1))
-        if self._pairs is None or self._pairs[0].dtype != kind or self._pairs[0].numel() < step * pad.degree:
-            # the rows gathered for one index_add_, allocated once (not mapped and faulted in at every call)
+        if self._pairs is None or self._pairs[0].numel() < step * pad.degree:
+            # the rows gathered for one scatter_add_, allocated once (not mapped and faulted in at every call)
             size = step * pad.degree
-            self._pairs = (torch.empty(size, dtype=kind, device=dev), torch.empty(size, dtype=flat.dtype, device=dev))
+            self._pairs = (torch.empty(size, dtype=torch.int64, device=dev), torch.empty(size, dtype=flat.dtype, device=dev))
         for k in range(0, base.size, step):
-            at = torch.as_tensor(base[k : k + step] * self.width, device=dev, dtype=kind)
+            at = torch.as_tensor(base[k : k + step] * self.width, device=dev, dtype=torch.int64)
             who = torch.as_tensor(neurons[k : k + step], device=dev)
             rows = (who.numel(), pad.degree)
             index = torch.index_select(offset, 0, who, out=self._pairs[0][: who.numel() * pad.degree].view(rows))
             index += at[:, None]
             weight = torch.index_select(pad.weight, 0, who, out=self._pairs[1][: who.numel() * pad.degree].view(rows))
-            flat.index_add_(0, index.view(-1), weight.view(-1))
+            flat.scatter_add_(0, index.view(-1), weight.view(-1))
 
 
 def _union(span: tuple[int, int] | None, lo: int, hi: int) -> tuple[int, int]:

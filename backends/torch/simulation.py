@@ -88,6 +88,7 @@ class TorchSimulation(HostedSimulation):
         dtype: str = "float64",
         batch_size: int = 256,
         threads: int | None = 1,
+        fuse: bool = False,
     ) -> None:
         super().__init__(network, backend="torch", dt=dt, seed=seed, hardware=hardware)
         if dtype not in _DTYPES:
@@ -100,6 +101,9 @@ class TorchSimulation(HostedSimulation):
         if threads is not None and (isinstance(threads, bool) or not isinstance(threads, (int, np.integer)) or threads < 1):
             raise ValidationError(f"torch backend: threads must be an integer >= 1 or None, got {threads!r}.")
         self._threads = None if threads is None else int(threads)
+        if not isinstance(fuse, bool):
+            raise ValidationError(f"torch backend: fuse must be True or False, got {fuse!r}.")
+        self._fuse = fuse
         self._plastic = False  # inference only: weights and thresholds are fixed
         self._theta = np.zeros(0)
         self._state: BatchState | None = None
@@ -126,7 +130,7 @@ class TorchSimulation(HostedSimulation):
             )
         self._theta = np.concatenate(theta)
         self._offsets = {g.name: (g.lo, g.hi) for g in layout.groups}
-        self._net = Compiled(layout, self._theta, device=self._device, dtype=self._dtype)
+        self._net = Compiled(layout, self._theta, device=self._device, dtype=self._dtype, dt=self._dt, fuse=self._fuse)
         self._state = None
         self._build_ns += time.perf_counter_ns() - started
 
@@ -301,8 +305,7 @@ class TorchSimulation(HostedSimulation):
                     a, b = bounds[name][k], bounds[name][min(k + lead, n_steps)]
                     if b > a:
                         state.emit(name, item[a:b], neurons[a:b], steps[a:b], dense=False)
-            state.deliver(j)
-            drive.add(state.isyn, j)
+            drive.add(state.slot(j), j)  # what sources deliver at step j joins the ring's arrivals
             for name, spikes in state.update(j):
                 if keep_spikes:
                     kept[name].append((j, torch.nonzero(spikes)))

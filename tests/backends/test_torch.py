@@ -24,17 +24,19 @@ def _assert_same_spikes(a: nv.BatchResult, b: nv.BatchResult) -> None:
             np.testing.assert_array_equal(ia, ib, err_msg=f"{name} item {k}")
 
 
+@pytest.mark.parametrize("fuse", [False, True], ids=["eager", "fused"])
 @pytest.mark.parametrize(
     ("build", "source", "n_in"),
     [(conv_current, "image", 72), (lambda: diehl_cook_like(poisson=False), "pixels", 30)],
     ids=["conv-current-ca2", "conductance-adaptive-lockout"],
 )
-def test_spikes_equal_the_reference_backend_on_explicit_input_spikes(build, source: str, n_in: int) -> None:
+def test_spikes_equal_the_reference_backend_on_explicit_input_spikes(build, source: str, n_in: int, fuse: bool) -> None:
+    """Eager, and with the option fuse (the neurons' step compiled by torch.compile into one kernel per group)."""
     items = [{source: s} for s in array_items(5, n_in, duration=40.0, rate_hz=300.0, seed=1)]
     ref = nv.compile(build(), backend="reference", dt=0.1, seed=2)
     ref.plasticity(False)
     expected = ref.run_batch(40.0, items, spike_trains=True)
-    sim = nv.compile(build(), backend="torch", dt=0.1, seed=2, batch_size=3)  # two batches: 3 + 2 items
+    sim = nv.compile(build(), backend="torch", dt=0.1, seed=2, batch_size=3, fuse=fuse)  # two batches: 3 + 2 items
     got = sim.run_batch(40.0, items, spike_trains=True)
     assert all(expected.counts[name].sum() > 0 for name in expected.counts)
     _assert_same_spikes(expected, got)
@@ -63,10 +65,11 @@ def test_batch_equals_the_run_reset_loop_with_poisson_input() -> None:
     assert got.counts["exc"].sum() > 0
 
 
-def test_float32_counts_stay_close_to_float64() -> None:
+@pytest.mark.parametrize("fuse", [False, True], ids=["eager", "fused"])
+def test_float32_counts_stay_close_to_float64(fuse: bool) -> None:
     items = [{"image": s} for s in array_items(3, 72, duration=30.0, rate_hz=300.0, seed=3)]
     exact = nv.compile(conv_current(), backend="torch", dt=0.1, seed=2).run_batch(30.0, items)
-    single = nv.compile(conv_current(), backend="torch", dt=0.1, seed=2, dtype="float32").run_batch(30.0, items)
+    single = nv.compile(conv_current(), backend="torch", dt=0.1, seed=2, dtype="float32", fuse=fuse).run_batch(30.0, items)
     total = exact.counts["maps"].sum()
     assert abs(int(single.counts["maps"].sum()) - int(total)) <= 0.02 * total
 
@@ -106,6 +109,8 @@ def test_options_and_refusals() -> None:
         nv.compile(conv_current(), backend="torch", dt=0.1, seed=1, dtype="float16")
     with pytest.raises(nv.ValidationError, match="batch_size"):
         nv.compile(conv_current(), backend="torch", dt=0.1, seed=1, batch_size=0)
+    with pytest.raises(nv.ValidationError, match="fuse must be True or False, got 'yes'"):
+        nv.compile(conv_current(), backend="torch", dt=0.1, seed=1, fuse="yes")
     plastic = diehl_cook_like()
     proj = plastic.projections["pixels->exc"]
     plastic.replace_projection(proj.replace(synapse=nv.DiehlCookSTDP(weight=0.05)))
@@ -139,16 +144,31 @@ def test_a_batch_larger_than_the_free_device_memory_is_refused_in_one_sentence()
 def test_batch_traces_of_every_recordable_equal_the_reference() -> None:
     items = [{"image": s} for s in array_items(3, 72, duration=20.0, rate_hz=300.0, seed=6)]
     traces = {}
-    for backend in ("reference", "torch"):
-        sim = nv.compile(conv_current(), backend=backend, dt=0.1, seed=2)
+    for label, backend, options in (("reference", "reference", {}), ("torch", "torch", {}), ("fused", "torch", {"fuse": True})):
+        sim = nv.compile(conv_current(), backend=backend, dt=0.1, seed=2, **options)
         sim.plasticity(False)
         for var in ("v", "isyn_exc", "isyn_inh", "i_ca2"):
             sim.record("places", var, [0, 3])
-        traces[backend] = sim.run_batch(20.0, items).traces
-    assert traces["torch"].keys() == traces["reference"].keys()
-    for key, values in traces["reference"].items():
-        assert values.shape == (3, 200, 2)
-        np.testing.assert_allclose(traces["torch"][key], values, rtol=1e-12, atol=1e-12, err_msg=str(key))
+        traces[label] = sim.run_batch(20.0, items).traces
+    for label in ("torch", "fused"):
+        assert traces[label].keys() == traces["reference"].keys()
+        for key, values in traces["reference"].items():
+            assert values.shape == (3, 200, 2)
+            np.testing.assert_allclose(traces[label][key], values, rtol=1e-12, atol=1e-12, err_msg=f"{label} {key}")
+
+
+def test_spiking_pairs_are_those_of_nonzero_in_its_order() -> None:
+    import torch
+
+    from neurovpr.backends.torch.build import spiking
+
+    rng = np.random.default_rng(3)
+    for density in (0.0, 0.002, 0.3, 1.0):
+        block = torch.as_tensor(rng.random((50, 120)) < density)
+        for spikes in (block, block.double(), block.float()[:, 20:90]):  # boolean, 0/1 values, a column view
+            item, neuron = spiking(spikes)
+            want_item, want_neuron = torch.nonzero(spikes, as_tuple=True)
+            assert torch.equal(item, want_item) and torch.equal(neuron, want_neuron)
 
 
 def _dense_input(delay: float | None) -> nv.Network:
@@ -186,3 +206,25 @@ def test_source_drive_equals_the_reference_in_batches_and_across_runs(
     for name in ("exc", "inh"):
         np.testing.assert_array_equal(sim.spike_counts(name), ref.spike_counts(name))
         np.testing.assert_array_equal(sim.spike_counts(name), expected.counts[name][1])
+
+
+def test_fuse_without_a_working_compiler_is_refused_in_one_sentence(tmp_path: Path) -> None:
+    """torch.compile needs a C++ compiler on a CPU; where it has none, the option fuse says so and names the way out.
+
+    Run in a fresh interpreter whose inductor finds no compiler (``CXX``) and has an empty cache.
+    """
+    import os
+    import subprocess
+
+    script = (
+        "import sys; sys.path.insert(0, sys.argv[1]); import neurovpr as nv; "
+        "from batch_networks import array_items, conv_current; "
+        "items = [{'image': s} for s in array_items(2, 72, duration=5.0, rate_hz=300.0, seed=1)]; "
+        "sim = nv.compile(conv_current(), backend='torch', dt=0.1, seed=2, fuse=True)\n"
+        "try:\n    sim.run_batch(5.0, items)\nexcept nv.BackendUnavailableError as err:\n    print('REFUSED', err)"
+    )
+    env = {**os.environ, "CXX": "/nonexistent/c++", "TORCHINDUCTOR_CACHE_DIR": str(tmp_path), "TORCHINDUCTOR_FX_GRAPH_CACHE": "0"}
+    runtime = str(Path(__file__).resolve().parents[1] / "runtime")
+    out = subprocess.run([sys.executable, "-c", script, runtime], env=env, capture_output=True, text=True, timeout=300)
+    line = next((x for x in out.stdout.splitlines() if x.startswith("REFUSED")), out.stdout + out.stderr[-2000:])
+    assert "the option fuse needs torch.compile, which failed here" in line and line.endswith("use fuse=False."), line
