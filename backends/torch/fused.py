@@ -24,6 +24,8 @@ the second one shape-generic).
 
 from __future__ import annotations
 
+import os
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -125,15 +127,27 @@ def kernels(dt: float, below: float) -> Kernels:
         return spikes
 
     return Kernels(
-        conductance=_refusing(torch.compile(conductance, fullgraph=True)),
-        current=_refusing(torch.compile(current, fullgraph=True)),
+        conductance=_guarded(torch.compile(conductance, fullgraph=True)),
+        current=_guarded(torch.compile(current, fullgraph=True)),
     )
 
 
-def _refusing(step: Callable[..., T]) -> Callable[..., T]:
-    """``step``, with a failure of ``torch.compile`` itself (no C++ compiler, no Triton) said in one sentence."""
+def _guarded(step: Callable[..., T]) -> Callable[..., T]:
+    """``step``, its compiled code loaded privately, and a failure of ``torch.compile`` itself said in one sentence.
+
+    TorchInductor loads each compiled kernel as a Python extension module, with the process's
+    ``dlopen`` flags. PyNEST sets ``RTLD_GLOBAL`` for the rest of the process when it is
+    imported (the ``pynn`` backend on NEST); kernels loaded that way export their functions
+    to every library loaded after them, and a later kernel of another shape whose C function
+    has the same name (it is named after its operations) then calls the earlier one: wrong
+    sizes, writes past the end of the state (``free(): corrupted unsorted chunks``). So the
+    flag is cleared while a step runs (and compiles and loads), and restored after.
+    """
 
     def call(*args: object) -> T:
+        flags = sys.getdlopenflags()
+        if flags & os.RTLD_GLOBAL:
+            sys.setdlopenflags(flags & ~os.RTLD_GLOBAL)
         try:
             return step(*args)
         except torch._dynamo.exc.BackendCompilerFailed as err:
@@ -142,5 +156,8 @@ def _refusing(step: Callable[..., T]) -> Callable[..., T]:
                 f"torch backend: the option fuse needs torch.compile, which failed here "
                 f"({type(err.inner_exception).__name__}: {reason}); use fuse=False."
             ) from err
+        finally:
+            if flags & os.RTLD_GLOBAL:
+                sys.setdlopenflags(flags)
 
     return call

@@ -228,3 +228,27 @@ def test_fuse_without_a_working_compiler_is_refused_in_one_sentence(tmp_path: Pa
     out = subprocess.run([sys.executable, "-c", script, runtime], env=env, capture_output=True, text=True, timeout=300)
     line = next((x for x in out.stdout.splitlines() if x.startswith("REFUSED")), out.stdout + out.stderr[-2000:])
     assert "the option fuse needs torch.compile, which failed here" in line and line.endswith("use fuse=False."), line
+
+
+def test_fused_kernels_stay_private_where_a_library_made_dlopen_global() -> None:
+    """PyNEST sets RTLD_GLOBAL for the whole process; the fused step's kernels must still each run their own code.
+
+    In a fresh interpreter with that flag set (as after ``import nest``), batches of 3 and then 2
+    items (two compiled shapes) give the eager step's counts; before the fix the second shape ran
+    the first shape's kernel (a later kernel's same-named C function resolved to the earlier one).
+    """
+    import subprocess
+
+    script = (
+        "import os, sys; sys.path.insert(0, sys.argv[1]); sys.setdlopenflags(os.RTLD_NOW | os.RTLD_GLOBAL)\n"
+        "import numpy as np, neurovpr as nv\nfrom batch_networks import array_items, conv_current\n"
+        "items = [{'image': s} for s in array_items(5, 72, duration=5.0, rate_hz=300.0, seed=1)]\n"
+        "runs = [nv.compile(conv_current(), backend='torch', dt=0.1, seed=2, batch_size=3, fuse=f).run_batch(5.0, items)"
+        " for f in (False, True)]\n"
+        "print('SAME' if np.array_equal(runs[0].counts['maps'], runs[1].counts['maps']) else 'DIFFERENT',"
+        " sys.getdlopenflags() & os.RTLD_GLOBAL != 0)"
+    )
+    runtime = str(Path(__file__).resolve().parents[1] / "runtime")
+    out = subprocess.run([sys.executable, "-c", script, runtime], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.split()[-2:] == ["SAME", "True"], out.stdout  # same counts; the process's flag restored
