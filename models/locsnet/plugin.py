@@ -276,7 +276,7 @@ class LoCSNetPlugin(ModelPlugin):
         curves, recalls = {}, {}
         # spiking network on the backend
         clf = SpikingClassifier(run.network, run.arch, run.spiking, backend=backend, seed=int(run.info.get("seed", 0)),
-                                hardware=o.hardware)
+                                hardware=o.hardware, **request.backend_options)
         spikes = clf.run(queries, progress=True)
         metrics, curves["LoCS-Net spiking"], recalls["LoCS-Net spiking"] = score(similarity_distances(spikes.counts), gt)
         # rate model and SAD on the same inputs

@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import os
 import time
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -131,8 +132,11 @@ def evaluate(
     stretch: float = 1.0,
     seq_len: int = 10,
     progress: bool = True,
+    backend_options: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Evaluate the run in ``run_dir`` on the recording ``data`` (default: the training one).
+
+    ``backend_options`` are passed to :func:`neurovpr.compile` (the backend's own options).
 
     Writes ``eval/<recording>_<backend>/`` in the run directory: ``result.json``,
     ``mbon.png`` (MBON rates before and after learning, membrane potential), ``roc.png``
@@ -157,7 +161,7 @@ def evaluate(
     run = RunDir(run_dir)
     network = _trained_network(run, n_pn)
     learned_segment = load_spikes(run.part(SEGMENT_FILE))
-    sim = compile_mbsnn(network, dt=dt, backend=backend, seed=seed)
+    sim = compile_mbsnn(network, dt=dt, backend=backend, seed=seed, **dict(backend_options or {}))
     t0 = time.perf_counter()
     after = present(sim, test, learn=False, progress="test, trained" if progress else None)
     wall = time.perf_counter() - t0

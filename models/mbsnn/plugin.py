@@ -90,6 +90,7 @@ class MBSNNPlugin(ModelPlugin):
         return evaluate(
             request.run, run_info, data=request.data, backend=request.backend, windows=o.windows, stretch=o.stretch,
             seq_len=request.seq_len if request.seq_len > 1 else 10, progress=request.progress,
+            backend_options=request.backend_options,
         )  # fmt: skip
 
     def sample_presentation(self, run_dir: Path, data: Path | None) -> SamplePresentation:

@@ -123,15 +123,18 @@ def train_job(
     return {"name": name, "network": _network_bytes(network), "record": record, "timing": timing}
 
 
-def query_job(images: np.ndarray, settings: str, backend: str, network: bytes, seed: int) -> np.ndarray:
-    """Spike counts ``(n_images, n_neurons)`` of a learned module for ``images`` (runs in a worker)."""
+def query_job(images: np.ndarray, settings: str, backend: str, options: str, network: bytes, seed: int) -> np.ndarray:
+    """Spike counts ``(n_images, n_neurons)`` of a learned module for ``images`` (runs in a worker).
+
+    ``options`` are the backend's options as a JSON object (``"{}"``: its defaults).
+    """
     from .deployment import static_network
 
     cfg = TrainingSettings.from_dict(json.loads(settings))
     net = _network_from_bytes(network)
     if not nv.get_backend(backend).capabilities.learns:  # an inference backend (torch) runs the learned weights as static
         net = static_network(net)
-    sim = nv.compile(net, backend=backend, dt=cfg.dt, seed=int(seed))
+    sim = nv.compile(net, backend=backend, dt=cfg.dt, seed=int(seed), **json.loads(options))
     sim.plasticity(False)
     flat = np.asarray(images).reshape(len(images), -1)
     return record_responses(Presenter(sim, cfg), flat)

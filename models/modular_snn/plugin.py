@@ -254,8 +254,8 @@ class ModularSNNPlugin(ModelPlugin):
         seq_len = request.seq_len
         workers = int(o.workers or default_workers())
         counts = query_responses(
-            run_dir, run_info, query, backend=backend, workers=workers, scheduler=request.scheduler,
-            progress=progress,
+            run_dir, run_info, query, backend=backend, backend_options=request.backend_options, workers=workers,
+            scheduler=request.scheduler, progress=progress,
         )  # fmt: skip
         ms = member_similarities(run_dir, run_info, counts, traverse.ground_truth, members=range(used))
         gt = traverse.ground_truth.subset(ms.places, ms.queries)

@@ -30,7 +30,7 @@ import hashlib
 import json
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -314,14 +314,17 @@ def query_responses(
     query: np.ndarray,
     *,
     backend: str | None = None,
+    backend_options: Mapping[str, Any] | None = None,
     workers: int = 1,
     scheduler: str | None = None,
     progress: bool = True,
 ) -> dict[str, np.ndarray]:
     """Spike counts ``(Q, n)`` of every module for the query images, by module name (cached in the run).
 
-    The cache file of a module holds the digest of the query images, the backend and
-    the module network's digest; any difference recomputes it.
+    ``backend_options`` are passed to :func:`neurovpr.compile` (e.g. the torch backend's
+    ``dtype`` and ``fuse``). The cache file of a module holds the digest of the query
+    images, the backend, its options and the module network's digest; any difference
+    recomputes it.
     """
     run_dir = Path(run_dir)
     backend = backend or run_info["backend"]
@@ -329,6 +332,7 @@ def query_responses(
     cfg = json.dumps(settings.as_dict(), sort_keys=True)
     images = _as_rows(query)
     q_digest = digest(images)
+    options = json.dumps(dict(backend_options or {}), sort_keys=True)
     cache = run_dir / "query" / backend
     out: dict[str, np.ndarray] = {}
     jobs, names, keys = [], [], []
@@ -338,14 +342,15 @@ def query_responses(
         if not h5.is_file():
             raise nv.ValidationError(f"{h5} is missing; the run directory is incomplete.")
         net_bytes = h5.read_bytes()
-        key = digest(q_digest, backend, hashlib.sha256(net_bytes).hexdigest())
+        # the options join the key only when given, so that caches written without them stay valid
+        key = digest(q_digest, backend, *([options] if backend_options else []), hashlib.sha256(net_bytes).hexdigest())
         cached = cache / f"{name}.npz"
         if cached.is_file():
             rec = read_npz(cached)
             if str(rec.get("key", "")) == key:
                 out[name] = rec["counts"]
                 continue
-        jobs.append((cfg, backend, net_bytes, derive_seed(int(mod["seed"]), 2)))
+        jobs.append((cfg, backend, options, net_bytes, derive_seed(int(mod["seed"]), 2)))
         names.append(name)
         keys.append(key)
 

@@ -16,6 +16,7 @@ import math
 import os
 import types
 import typing
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -190,6 +191,10 @@ class EvalRequest:
         Show progress bars.
     options
         The model's own options (an instance of its ``eval_options``); ``None`` for its defaults.
+    backend_options
+        Options of the backend (``neurovpr.compile(..., **backend_options)``, e.g. the torch
+        backend's ``dtype``, ``fuse``), each a bool, number, string or ``None``; the backend
+        refuses names it does not have.
     """
 
     run: Path
@@ -199,6 +204,13 @@ class EvalRequest:
     scheduler: str | None = None
     progress: bool = True
     options: Any = None
+    backend_options: Mapping[str, Any] = dataclasses.field(default_factory=dict)
 
     def __post_init__(self) -> None:
         check_fields(self)
+        for key, value in self.backend_options.items():
+            if not isinstance(key, str) or not (value is None or isinstance(value, (bool, int, float, str))):
+                raise ValidationError(
+                    f"EvalRequest.backend_options[{key!r}] is {value!r}; a backend option is a bool, number, string or None."
+                )
+        object.__setattr__(self, "backend_options", types.MappingProxyType(dict(self.backend_options)))

@@ -148,3 +148,33 @@ def model_options(args: argparse.Namespace, kind: type) -> Any:
 def show_progress(args: argparse.Namespace) -> bool:
     """Progress bars unless ``--no-progress``, or ``--json`` with stderr not a terminal."""
     return not getattr(args, "no_progress", False) and (not getattr(args, "json", False) or sys.stderr.isatty())
+
+
+def backend_options(pairs: Sequence[str] | None) -> dict[str, Any]:
+    """The backend options of repeated ``--backend-option KEY=VALUE`` arguments.
+
+    A value reads as ``true``/``false`` (any case), ``none``, an integer, a number, else as the
+    string itself (``--backend-option dtype=float32 --backend-option fuse=true``); the backend
+    checks the names and values (``neurovpr backends`` lists its options).
+    """
+    out: dict[str, Any] = {}
+    for pair in pairs or ():
+        key, sep, text = pair.partition("=")
+        if not sep or not key.strip():
+            raise ValidationError(f"--backend-option {pair!r} is not KEY=VALUE (e.g. --backend-option fuse=true).")
+        out[key.strip()] = _option_value(text.strip())
+    return out
+
+
+def _option_value(text: str) -> Any:
+    lowered = text.lower()
+    if lowered in ("true", "false"):
+        return lowered == "true"
+    if lowered == "none":
+        return None
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text

@@ -1,4 +1,7 @@
-"""``neurovpr eval --run RUN_DIR [--data PATH] [--backend NAME] [--seq-len L] [--json] [--activity-plots DIR]``."""
+"""``neurovpr eval --run RUN_DIR [--data PATH] [--backend NAME] [--backend-option KEY=VALUE ...] [--seq-len L] [--json]``.
+
+(and ``[--activity-plots DIR]``.)
+"""
 
 from __future__ import annotations
 
@@ -9,7 +12,7 @@ from pathlib import Path
 from neurovpr.apps.activity import plot_sample_activity
 from neurovpr.apps.modelapi import get_model, read_run_info
 from neurovpr.apps.requests import EvalRequest
-from neurovpr.cli.arguments import ModelHelp, model_options, parse_model_options, show_progress
+from neurovpr.cli.arguments import ModelHelp, backend_options, model_options, parse_model_options, show_progress
 from neurovpr.cli.main import _Parser
 from neurovpr.evaluation.neurobench import neurobench_block
 
@@ -18,6 +21,8 @@ def _common(p: argparse.ArgumentParser) -> None:
     p.add_argument("--run", type=Path, required=True, help="run directory written by train")
     p.add_argument("--data", type=Path, default=None, help="dataset (default: the one trained on)")
     p.add_argument("--backend", default=None, help="backend to evaluate on (default: the training backend)")
+    p.add_argument("--backend-option", action="append", default=None, metavar="KEY=VALUE",
+                   help="an option of the backend, repeatable (e.g. torch: dtype=float32, fuse=true)")  # fmt: skip
     p.add_argument("--seq-len", type=int, default=1, help="sequence length for sequence matching (default 1)")
     p.add_argument("--json", action="store_true", help="print exactly one JSON object")
     p.add_argument("--activity-plots", type=Path, default=None, metavar="DIR",
@@ -50,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     args = parse_model_options(_model_parser(args.run), args.argv[1:], "eval", info["model"])
     request = EvalRequest(
         run=args.run, data=args.data, backend=args.backend, seq_len=args.seq_len, progress=show_progress(args),
-        options=model_options(args, model.eval_options),
+        options=model_options(args, model.eval_options), backend_options=backend_options(args.backend_option),
     )
     result = model.evaluate(request, info)
     result.setdefault("neurobench", neurobench_block(args.run))

@@ -69,3 +69,20 @@ def test_modular_snn_eval_runs_on_the_torch_backend(tmp_path: Path, capsys: pyte
     assert main(["eval", "--run", str(run_dir), "--backend", "torch", "--json", "--no-progress"]) == 0
     result = json.loads(capsys.readouterr().out)
     assert result["backend"] == "torch" and {"R@1", "P@100R"} <= set(result["metrics"])
+    # the backend's own options from the command line: float64 fused gives the eager step's answers
+    fused_args = ["--backend-option", "fuse=true", "--backend-option", "dtype=float64"]
+    assert main(["eval", "--run", str(run_dir), "--backend", "torch", *fused_args, "--json", "--no-progress"]) == 0
+    fused = json.loads(capsys.readouterr().out)
+    assert fused["metrics"] == result["metrics"]
+    assert main(["eval", "--run", str(run_dir), "--backend", "torch", "--backend-option", "colour=red", "--no-progress"]) == 2
+    assert "has no option 'colour'" in capsys.readouterr().err
+    assert main(["eval", "--run", str(run_dir), "--backend", "torch", "--backend-option", "fuse", "--no-progress"]) == 2
+    assert "--backend-option 'fuse' is not KEY=VALUE" in capsys.readouterr().err
+
+
+def test_backend_option_values_read_as_bools_numbers_none_or_strings() -> None:
+    from neurovpr.cli.arguments import backend_options
+
+    got = backend_options(["fuse=TRUE", "batch_size=64", "rate=1.5", "device=none", "dtype=float32", "name=a=b"])
+    assert got == {"fuse": True, "batch_size": 64, "rate": 1.5, "device": None, "dtype": "float32", "name": "a=b"}
+    assert backend_options(None) == {}
