@@ -22,8 +22,8 @@ Options of ``nv.compile(..., backend="torch", ...)``:
   or appear/disappear, so counts agree statistically, not spike for spike.
 - ``batch_size``: items simulated at once (default 256); larger batches amortise the
   per-step overhead and need about ``(2 * ring + 10) * batch_size * neurons`` values of memory,
-  plus the source drive's window of coming steps (about 64 MiB; more when the longest
-  source delay alone needs more); both are checked against the memory limit before a batch.
+  plus the source drive's window of coming steps (about 64 MiB; more when the batch's
+  values over twice the longest source delay need more); both are checked against the memory limit before a batch.
 - ``threads``: torch's intra-op CPU threads while this simulation runs (default 1: the
   per-step tensors are small, and on a shared or busy CPU more threads mostly wait for each
   other); ``None`` leaves torch's setting.

@@ -14,8 +14,9 @@ each receptor. The step loop adds one step's rows to that step's arrivals (the d
   delivered by one gather of their rows and one ``scatter_add_``.
 - Other fan-out tables stay on the delay ring (:meth:`.build.BatchState.emit`).
 
-The window is bounded by :data:`WINDOW_BYTES` (the chunk shrinks to one step, never the
-longest delay), and counted in the batch's memory check. What is still in the window when
+The window aims to stay within :data:`WINDOW_BYTES`, but its chunk is never shorter than the
+longest source delay (the window is then twice that delay), and it is counted in the batch's
+memory check. What is still in the window when
 the run ends (arrivals after its last step) is added to the delay ring, so state that
 carries over to the next ``run`` receives it.
 """
@@ -31,7 +32,7 @@ from .build import BatchState, Compiled, Dense
 
 __all__ = ["SourceDrive", "WINDOW_BYTES"]
 
-#: The memory the window of coming steps aims to stay within.
+#: The memory the window of coming steps aims to stay within (it takes at least twice the longest source delay).
 WINDOW_BYTES = 64 * 2**20
 #: The most (spike, connection) pairs delivered by one ``scatter_add_`` (bounds its temporaries).
 _PAIRS = 2**21
@@ -122,7 +123,9 @@ class SourceDrive:
         itemsize = torch.empty(0, dtype=net.dtype).element_size()
         row = batch * width * itemsize
         self.reach = reach
-        self.chunk = max(1, min(n_steps, WINDOW_BYTES // max(row, 1) - reach))
+        # at least `reach` steps: each move of the window copies its last `reach` rows to the front, which a
+        # shorter chunk would repeat every few steps (a batch of 256 float64 items: every step, 20x slower)
+        self.chunk = max(1, min(n_steps, max(WINDOW_BYTES // max(row, 1) - reach, reach)))
         widest = max((block.hi - block.lo for _, block in self.blocks), default=0)
         product = (self.chunk + reach) * batch * widest * itemsize
         pairs = _PAIRS * (8 + itemsize) if self.whole else 0
