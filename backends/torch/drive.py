@@ -124,7 +124,7 @@ class SourceDrive:
         row = batch * width * itemsize
         self.reach = reach
         # at least `reach` steps: each move of the window copies its last `reach` rows to the front, which a
-        # shorter chunk would repeat every few steps (a batch of 256 float64 items: every step, 20x slower)
+        # shorter chunk would repeat every few steps (a batch of 256 float64 items: every step, about 15x slower)
         self.chunk = max(1, min(n_steps, max(WINDOW_BYTES // max(row, 1) - reach, reach)))
         widest = max((block.hi - block.lo for _, block in self.blocks), default=0)
         product = (self.chunk + reach) * batch * widest * itemsize
