@@ -168,7 +168,9 @@ class SourceDrive:
             self._window = torch.zeros((b, size, self.width), dtype=self.net.dtype, device=self.net.device)
         else:  # arrivals of earlier chunks' spikes that are still to come move to the front
             keep = size - (start - self._start)
-            self._window[:, :keep] = self._window[:, size - keep :].clone()
+            tail = self._window[:, size - keep :]
+            # the tail and the front do not overlap when the chunk is at least the reach: one copy, no temporary
+            self._window[:, :keep].copy_(tail if 2 * keep <= size else tail.clone())
             self._window[:, keep:].zero_()
         self._start = start
         window = self._window
