@@ -7,7 +7,8 @@ Order within step ``j`` (the reference backend's, backends/reference/kernels.py)
    added to the synaptic currents/conductances and cleared;
 3. each group of consecutive populations of one membrane form: one step of
    :mod:`.neurons` (exact propagation, decays, threshold, reset, refractoriness and lockout,
-   the Ca2+ jump); each population's spikes are stamped ``j + 1`` and scheduled into the ring.
+   the Ca2+ jump), or with the option ``fuse`` 2 and 3 as one compiled kernel per group
+   (:mod:`.fused`); each population's spikes are stamped ``j + 1`` and scheduled into the ring.
 
 A spike is scheduled by looking up its population's fan-out table
 (:class:`.translation.FanOut`; look-ups by ``index_select``, which copies faster than indexing
