@@ -302,48 +302,41 @@ class BatchState:
         """Add the arrivals of step ``j`` (:meth:`slot`, then cleared) and advance every population over the step.
 
         Returns each population's ``(batch, size)`` spikes (scheduled, counted): views of the
-        groups' scratch, valid until the next step.
+        groups' scratch (or of the fused step's output), valid until the next step.
         """
-        if self.net.kernels is not None:
-            return self._update_fused(j, self.net.kernels)
+        fused = self.net.kernels
         slot = self.slot(j)
-        self.isyn += slot
-        slot.zero_()
+        if fused is None:  # the fused step adds and clears the slot itself
+            self.isyn += slot
+            slot.zero_()
         out = []
         for g, scratch in zip(self.net.groups, self.scratch, strict=True):
-            spikes = self._conductance(g, scratch) if g.conductance else self._current(g, scratch)
+            if fused is not None:
+                spikes = self._fused(g, fused, slot)
+            else:
+                spikes = self._conductance(g, scratch) if g.conductance else self._current(g, scratch)
             ica = self.ica if g.calcium else None
             for name, lo, hi in g.members:
                 own = spikes[:, lo - g.lo : hi - g.lo]
                 item, neuron = spiking(own)
                 if item.numel():
-                    flat = item * self.net.n + lo + neuron
-                    reset_spiking(self.v, self.refr, ica, flat, neuron + (lo - g.lo), g.p, g.refrac_total)
-                    self.counts.view(-1).index_add_(0, flat, self._ones_of(flat.numel()))
+                    if fused is None:  # the eager step leaves the reset and the spike count to its caller
+                        flat = item * self.net.n + lo + neuron
+                        reset_spiking(self.v, self.refr, ica, flat, neuron + (lo - g.lo), g.p, g.refrac_total)
+                        self.counts.view(-1).index_add_(0, flat, self._ones_of(flat.numel()))
                     self.emit(name, item, neuron, j + 1)
                 out.append((name, own))
         return out
 
-    def _update_fused(self, j: int, k: Kernels) -> list[tuple[str, torch.Tensor]]:
-        """:meth:`update` with the compiled steps, which reset the spiking neurons and count their spikes themselves."""
-        out = []
-        slot = self.slot(j)
-        for g in self.net.groups:
-            sl = slice(g.lo, g.hi)
-            v, refr, counts = self.v[:, sl], self.refr[:, sl], self.counts[:, sl]
-            ie, ii = self.isyn[0, :, sl], self.isyn[1, :, sl]
-            arrive_e, arrive_i = slot[0, :, sl], slot[1, :, sl]
-            if g.conductance:
-                spikes = k.conductance(v, ie, ii, arrive_e, arrive_i, refr, counts, g.packed)
-            else:
-                spikes = k.current(v, ie, ii, arrive_e, arrive_i, self.ica[:, sl], refr, counts, g.packed, g.calcium)
-            for name, lo, hi in g.members:
-                own = spikes[:, lo - g.lo : hi - g.lo]
-                item, neuron = spiking(own)
-                if item.numel():
-                    self.emit(name, item, neuron, j + 1)
-                out.append((name, own))
-        return out
+    def _fused(self, g: _Group, k: Kernels, slot: torch.Tensor) -> torch.Tensor:
+        """One compiled step of group ``g`` (:mod:`.fused`: arrivals, step, reset and spike count); its spikes."""
+        sl = slice(g.lo, g.hi)
+        v, refr, counts = self.v[:, sl], self.refr[:, sl], self.counts[:, sl]
+        ie, ii = self.isyn[0, :, sl], self.isyn[1, :, sl]
+        arrive_e, arrive_i = slot[0, :, sl], slot[1, :, sl]
+        if g.conductance:
+            return k.conductance(v, ie, ii, arrive_e, arrive_i, refr, counts, g.packed)
+        return k.current(v, ie, ii, arrive_e, arrive_i, self.ica[:, sl], refr, counts, g.packed, g.calcium)
 
     def _current(self, g: _Group, scratch: Scratch) -> torch.Tensor:
         sl = slice(g.lo, g.hi)

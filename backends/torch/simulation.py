@@ -25,7 +25,7 @@ from neurovpr.ir.cells import IF_cond_exp_adaptive
 from neurovpr.ir.network import Network
 from neurovpr.runtime.batch import BatchResult
 
-from .build import BatchState, Compiled
+from .build import BatchState, Compiled, spiking
 from .capabilities import LEARNING_REFUSAL
 from .drive import SourceDrive
 from .translation import build_layout
@@ -308,7 +308,7 @@ class TorchSimulation(HostedSimulation):
             drive.add(state.slot(j), j)  # what sources deliver at step j joins the ring's arrivals
             for name, spikes in state.update(j):
                 if keep_spikes:
-                    kept[name].append((j, torch.nonzero(spikes)))
+                    kept[name].append((j, torch.stack(spiking(spikes), 1)))
             for pop, var in recorded:
                 lo, hi = self._offsets[pop]
                 volts[(pop, var)].append(state.variable(var)[:, lo:hi].clone())
