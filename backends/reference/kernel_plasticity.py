@@ -40,15 +40,16 @@ def table_decay(x, steps, table, r, dt, tau):
 
 
 @njit(inline="always", _nrt=False)
-def arrive(g, r, lo, hi, nxt, j, dt, plastic_on, syn, stdp, isyn):
+def arrive(g, r, lo, hi, j, dt, plastic_on, syn, stdp, isyn):
     """Spikes arriving at segment ``g`` (projection ``r``, synapses ``lo:hi``) at step ``j``: depress, deliver, update traces.
 
     Each synapse is first depressed by the postsynaptic trace (its value at time ``j``)
     and then delivers its new weight to ``isyn[0]`` (excitatory) or ``isyn[1]``
-    (inhibitory). Returns the number of weight updates. ``nxt`` is the first synapse of
-    the segment that arrives next: its weights and targets are prefetched meanwhile, a
-    line every 8 synapses (segments lie apart, so the hardware prefetcher would start
-    on each one late). ``syn`` and ``stdp`` are a ``PlasticTables`` and ``Traces`` (:mod:`.kernel_layout`).
+    (inhibitory). Returns the number of weight updates. The loops branch only at their
+    end: a software prefetch of the next segment every 8 synapses cost more in
+    mispredicted branches than it saved (the Modular SNN's segments, one per input and
+    delay, hold about 4 synapses and end anywhere). ``syn`` and ``stdp`` are a
+    ``PlasticTables`` and ``Traces`` (:mod:`.kernel_layout`).
     """
     p_post, p_w, proj_inh = syn.p_post, syn.p_w, syn.proj_inh
     seg_xpre, seg_last, rules, pre_table, tr_shift = stdp.seg_xpre, stdp.seg_last, stdp.rules, stdp.pre_table, stdp.tr_shift
@@ -58,19 +59,15 @@ def arrive(g, r, lo, hi, nxt, j, dt, plastic_on, syn, stdp, isyn):
     w_min, w_max, dep = rules[r, R_W_MIN], rules[r, R_W_MAX], rules[r, R_DEP]
     target = np.uint64(1 if proj_inh[r] else 0)
     lo, hi = np.uint64(lo), np.uint64(hi)
-    ahead = np.uint64(nxt) - lo  # wraps when the next segment lies before this one: the sum below is exact
     updates = 0
     if not plastic_on:
         for q in range(lo, hi):
-            if (q & np.uint64(7)) == 0:
-                prefetch(p_w, ahead + q)
-                prefetch(p_post, ahead + q)
             isyn[target, p_post[q]] += p_w[q]
     elif rk == RULE_MULTIPLICATIVE:
-        updates = depress(lo, hi, ahead, shift, target, dep, dep, w_min, w_max, p_post, p_w, xpost1, isyn, True)
+        updates = depress(lo, hi, shift, target, dep, dep, w_min, w_max, p_post, p_w, xpost1, isyn, True)
     else:  # additive: w - dep w_max x_post; Diehl & Cook: w - dep x_post
         step = dep * w_max if rk == RULE_ADDITIVE else dep
-        updates = depress(lo, hi, ahead, shift, target, step, dep, w_min, w_max, p_post, p_w, xpost1, isyn, False)
+        updates = depress(lo, hi, shift, target, step, dep, w_min, w_max, p_post, p_w, xpost1, isyn, False)
     if rk == RULE_DIEHL_COOK:
         seg_xpre[g] = 1.0
     else:
@@ -80,19 +77,15 @@ def arrive(g, r, lo, hi, nxt, j, dt, plastic_on, syn, stdp, isyn):
 
 
 @njit(inline="always", _nrt=False)
-def depress(lo, hi, ahead, shift, target, step, dep, w_min, w_max, p_post, p_w, xpost1, isyn, mult):
+def depress(lo, hi, shift, target, step, dep, w_min, w_max, p_post, p_w, xpost1, isyn, mult):
     """Depress synapses ``lo:hi`` by their postsynaptic traces and deliver them; return the updates.
 
     ``w - step x_post`` (additive, Diehl & Cook), or ``w - dep (w - w_min) x_post`` when
     ``mult`` (a constant at each call, so each loop computes one form), clipped to
-    ``[w_min, w_max]``, without branches: a zero trace keeps the weight. ``ahead`` is
-    :func:`arrive`'s prefetch offset.
+    ``[w_min, w_max]``, without branches: a zero trace keeps the weight.
     """
     updates = 0
     for q in range(lo, hi):
-        if (q & np.uint64(7)) == 0:
-            prefetch(p_w, ahead + q)
-            prefetch(p_post, ahead + q)
         post = p_post[q]
         x_post = xpost1[np.uint64(post + shift)]
         w = p_w[q]

@@ -147,8 +147,7 @@ def _step_loop(stamp: int) -> Callable[..., int]:
             n_ev = ev_n[slot]
             for e in range(n_ev):
                 code, lo, hi = ev[slot, e, 0], ev[slot, e, 1], ev[slot, e, 2]
-                nxt = ev[slot, e + 1, 1] if e + 1 < n_ev else lo
-                updates = arrive(code & EV_SEG, code >> EV_SHIFT, lo, hi, nxt, j, dt, plastic_on, syn, stdp, isyn)
+                updates = arrive(code & EV_SEG, code >> EV_SHIFT, lo, hi, j, dt, plastic_on, syn, stdp, isyn)
                 stats[ST_PLASTIC_UPDATES] += updates
                 stats[ST_SYN_EVENTS] += hi - lo
             ev_n[slot] = 0
