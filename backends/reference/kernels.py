@@ -38,7 +38,10 @@ on-disk cache of a function sees only its own file change, so the two entry poin
 built by functions that close over a hash of all those files (``CACHE_UNIT``, see
 :mod:`.kernel_cache`): a change to any of them compiles the loop anew. The kernels
 allocate nothing, so they are compiled without numba's reference counting
-(``_nrt=False``), which would cost atomic operations at every call.
+(``_nrt=False``), which would cost atomic operations at every call. The step loop follows
+numpy's error model (``error_model="numpy"``): its divisors are never zero (conductance
+totals include the leak, time constants and ring sizes are positive), and Python's model
+would test each divisor and keep the divisions from overlapping.
 
 The loop returns early (before starting a step) when the spike record buffer may
 overflow; the caller grows the buffer and calls again from that step.
@@ -88,7 +91,7 @@ CACHE_UNIT = ("kernels", "kernel_layout", "kernel_sources", "kernel_neurons", "k
 def _step_loop(stamp: int) -> Callable[..., int]:
     """The step loop, cached under ``stamp`` (:func:`.kernel_cache.source_stamp` of ``CACHE_UNIT``)."""
 
-    @njit(cache=True, _nrt=False)
+    @njit(cache=True, _nrt=False, error_model="numpy")
     def run_steps(
         j0, j1, dt, plastic_on, headroom, n_updated, neurons, record, static, arrivals, conv, syn, stdp, sources, var, stats
     ):
