@@ -111,8 +111,9 @@ def update_cond(lo, hi, flags, dt, plastic_on, neurons):
     p11e, p11i, theta_decay = params[lo, C_P11E], params[lo, C_P11I], params[lo, C_THETA_DECAY]
     lock = np.int64(params[lo, C_LOCK])  # the last `lock` steps of the count: free membrane, no spike yet
     adapt = plastic_on and (flags & F_ADAPTIVE) != 0
-    m = 0
-    for i in range(lo, hi):
+    ulo, uhi = np.uint64(lo), np.uint64(hi)  # unsigned indices: no negative-index wrap
+    m = np.uint64(0)
+    for i in range(ulo, uhi):
         if refr[i] > lock:
             refr[i] -= 1
         else:
@@ -127,13 +128,12 @@ def update_cond(lo, hi, flags, dt, plastic_on, neurons):
                 todo[m] = i
                 v_eq[m] = (gl * rest + ge * e_rev_e + gi * e_rev_i + i_off) / gt
                 rate[m] = -dt * gt / cm
-                m += 1
+                m += np.uint64(1)
     for k in range(m):
         i = todo[k]
         v_inf = v_eq[k]
         v[i] = v_inf + (v[i] - v_inf) * np.exp(rate[k])
     n_spikes = 0
-    ulo, uhi = np.uint64(lo), np.uint64(hi)  # unsigned indices: no negative-index wrap, so the loop vectorises
     for q in range(ulo, uhi):
         ie[q] = flush(ie[q] * p11e)
         ii[q] = flush(ii[q] * p11i)
