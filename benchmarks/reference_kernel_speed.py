@@ -94,11 +94,10 @@ def modular_module(n_images: int, repeats: int, seed: int) -> dict:
         sim = nv.compile(settings.network("module", seed), backend="reference", dt=settings.dt, seed=seed)
         presenter = Presenter(sim, settings)
         presenter.present(images[0])  # warm-up (numba loads or compiles the kernels)
-        _, post = sim.connections("pixels->exc")
         total = 0
         cpu0 = time.process_time()
         for image in images:
-            normalise_input_weights(sim, settings.weight_sum, settings.params.w_max, post)
+            normalise_input_weights(sim, settings.weight_sum, settings.params.w_max)
             total += int(presenter.present(image).sum())
         train.append((time.process_time() - cpu0) / n_images)
         sim.plasticity(False)

@@ -15,6 +15,7 @@ from neurovpr.errors import ValidationError
 from neurovpr.ir.cells import IF_cond_exp_adaptive, SpikeSourceArray, SpikeSourcePoisson
 from neurovpr.ir.network import Network
 from neurovpr.runtime.simulation import Simulation
+from neurovpr.runtime.weights import check_weight_range
 
 if TYPE_CHECKING:
     from neurovpr.hardware.check import HardwareTarget
@@ -23,6 +24,7 @@ from . import kernel_layout as kl
 from . import kernels
 from .delivery import split_static
 from .kernel_layout import BLOCK_SHIFT, C_I_CA_INIT, C_V_INIT, CV_WOFF, KIND_POISSON, VAR_CODES
+from .normalisation import apply_factors, scale_factors
 from .translation import build_layout
 
 _PAST = -(2**40)
@@ -348,6 +350,20 @@ class ReferenceSimulation(Simulation):
                     setattr(lay, key, value)
         elif lay.d_w is not lay.s_w:
             lay.d_w[lay.d_of_s[pos]] = values
+
+    def _normalise_weights(self, projection: str, total: float, w_max: float | None) -> None:
+        if projection not in self._lay.proj_plastic:  # static: the generic way (convolution kernels, delivery copy)
+            super()._normalise_weights(projection, total, w_max)
+            return
+        store, pos = self._weight_store(projection)
+        post = self._lay.proj_post[projection]
+        n_post = self.network.populations[self.network.projections[projection].post].size
+        factor, extent = np.empty(n_post), np.empty((2, n_post))
+        clip, cap = w_max is not None, np.inf if w_max is None else w_max
+        lo, hi, finite = scale_factors(store, pos, post, total, factor, extent, cap, clip)
+        if pos.size:
+            check_weight_range(self.network, projection, float(lo), float(hi), finite=bool(finite))
+        apply_factors(store, pos, post, factor, cap, clip)
 
     def _learned_state(self, population: str) -> dict[str, np.ndarray]:
         pop = self._network.populations[population]

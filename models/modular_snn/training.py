@@ -194,18 +194,13 @@ class Presenter:
         return counts
 
 
-def normalise_input_weights(sim: nv.Simulation, target_sum: float, w_max: float, post: np.ndarray | None = None) -> None:
+def normalise_input_weights(sim: nv.Simulation, target_sum: float, w_max: float) -> None:
     """Scale each excitatory neuron's input weights to sum to ``target_sum`` (clipped to ``w_max``).
 
-    ``post`` is the projection's postsynaptic index per connection
-    (``sim.connections(...)[1]``), looked up when not given.
+    :meth:`Simulation.normalise_weights` (the sums in connection order, as ``np.bincount``
+    adds them).
     """
-    w = sim.weights(INPUT_PROJECTION, format="list")
-    if post is None:
-        _, post = sim.connections(INPUT_PROJECTION)
-    sums = np.bincount(post, weights=w, minlength=int(post.max()) + 1)
-    factor = np.divide(target_sum, sums, out=np.ones_like(sums), where=sums > 0)
-    sim.set_weights(INPUT_PROJECTION, np.minimum(w * factor[post], w_max))
+    sim.normalise_weights(INPUT_PROJECTION, target_sum, w_max=w_max)
 
 
 def record_responses(presenter: Presenter, images: np.ndarray, *, tick: Callable[[], None] | None = None) -> np.ndarray:
@@ -292,14 +287,13 @@ def train_module(
     sim = nv.compile(settings.network(name, seed), backend=settings.backend, dt=settings.dt, seed=int(seed))
     presenter = Presenter(sim, settings)
     order = np.random.default_rng([int(seed), 1]).permutation(places.size)  # one order, every epoch
-    _, post = sim.connections(INPUT_PROJECTION)
     epoch = [(t, k) for t in range(len(traverses)) for k in order]
     first_counted = settings.epochs * len(epoch) - settings.assignment_presentations
     summed = np.zeros((places.size, settings.params.n_neurons))
     shown = np.zeros(places.size)
     for e in range(settings.epochs):
         for j, (t, k) in enumerate(epoch):
-            normalise_input_weights(sim, settings.weight_sum, settings.params.w_max, post)
+            normalise_input_weights(sim, settings.weight_sum, settings.params.w_max)
             counts = presenter.present(traverses[t][places[k]])
             if e * len(epoch) + j >= first_counted:
                 summed[k] += counts

@@ -37,6 +37,7 @@ from neurovpr.ir.connectors import ConvolutionConnector, FromListConnector
 from neurovpr.ir.network import Network
 from neurovpr.resources import estimate_network, require_work
 from neurovpr.runtime.batch import BatchResult, run_items
+from neurovpr.runtime.weights import check_normalisation, check_weight_range, normalised
 
 if TYPE_CHECKING:
     from neurovpr.hardware.check import HardwareTarget
@@ -298,18 +299,22 @@ class Simulation(ABC):
                 f"set_weights: {projection!r} needs a ({n_pre}, {n_post}) matrix or {pre.size} values, "
                 f"got shape {arr.shape}."
             )
-        if not np.all(np.isfinite(arr)):
-            raise ValidationError(f"set_weights: weights for {projection!r} contain NaN or infinite values.")
-        bounds = proj.synapse.weight_bounds
-        if bounds is not None and arr.size and (arr.min() < bounds[0] or arr.max() > bounds[1]):
-            raise ValidationError(
-                f"set_weights: weights for {projection!r} must lie in [{bounds[0]}, {bounds[1]}], "
-                f"got [{arr.min():g}, {arr.max():g}]."
-            )
-        post_pop = self._network.populations[proj.post]
-        if (post_pop.cell_type.conductance_based or proj.receptor_type == "inhibitory") and arr.size and arr.min() < 0:
-            raise ValidationError(f"set_weights: weights for {projection!r} must be >= 0, got {arr.min():g}.")
+        if arr.size:
+            check_weight_range(self._network, projection, float(arr.min()), float(arr.max()))
         self._set_weights(projection, arr.copy())
+
+    def normalise_weights(self, projection: str, total: float, *, w_max: float | None = None) -> None:
+        """Scale each postsynaptic neuron's incoming weights in ``projection`` to sum to ``total``, then clip at ``w_max``.
+
+        Diehl & Cook's normalisation between presentations (Brian2 users write it by hand,
+        ``w = w * total / sum(w)`` per target): the sums are taken in connection order, a
+        neuron whose weights sum to 0 keeps them, and the new weights are checked as
+        :meth:`set_weights` checks them. The same numbers on every backend; a backend may
+        compute them in its own storage (the reference backend does, without copies).
+        """
+        self._projection(projection)
+        total_f, w_max_f = check_normalisation(projection, total, w_max)
+        self._normalise_weights(projection, total_f, w_max_f)
 
     def statistics(self) -> dict[str, int]:
         """Activity counted since compile: steps, neuron updates, spikes, synaptic events, plastic updates."""
@@ -453,6 +458,13 @@ class Simulation(ABC):
     @abstractmethod
     def _set_weights(self, projection: str, values: np.ndarray) -> None:
         """Replace weights (canonical order, validated)."""
+
+    def _normalise_weights(self, projection: str, total: float, w_max: float | None) -> None:
+        """Normalise through :meth:`weights` and :meth:`set_weights`; backends may override."""
+        proj = self._network.projections[projection]
+        _, post = self._connections(projection)
+        w = self.weights(projection, format="list")
+        self.set_weights(projection, normalised(w, post, self._network.populations[proj.post].size, total, w_max))
 
     @abstractmethod
     def _learned_state(self, population: str) -> dict[str, np.ndarray]:

@@ -54,7 +54,6 @@ def _run(backend: str, reference: np.ndarray, query: np.ndarray) -> tuple[np.nda
     order = [p for _ in range(EPOCHS) for p in rng.permutation(PLACES)]
     train_trains = _spike_trains(reference[order], rng, settings.coding, settings.dt)
     test_trains = _spike_trains(np.concatenate([reference, query]), rng, settings.coding, settings.dt)
-    _, post = sim.connections(network.INPUT_PROJECTION)
 
     def present(trains: nv.SpikeSourceArray) -> np.ndarray:
         sim.run(settings.coding.presentation_ms, inputs={network.INPUT: trains})
@@ -63,7 +62,7 @@ def _run(backend: str, reference: np.ndarray, query: np.ndarray) -> tuple[np.nda
         return counts
 
     for trains in train_trains:
-        training.normalise_input_weights(sim, settings.weight_sum, settings.params.w_max, post)
+        training.normalise_input_weights(sim, settings.weight_sum, settings.params.w_max)
         present(trains)
     sim.plasticity(False)
     counts = np.array([present(t) for t in test_trains])

@@ -61,6 +61,10 @@ def test_ring_buffer_shift_and_saturation():
     sim.set_weights("src->n", np.full(20, 0.5))  # summed 5 nA: still shift 3, weights requantised
     assert np.all(sim.quantised.weights["src->n"]["value"] == 2**11)
     np.testing.assert_array_equal(sim.weights("src->n"), 0.5)
+    sim.normalise_weights("src->n", 2.5)  # each neuron's 10 weights to sum 2.5 nA: 0.25, requantised (shift 2)
+    np.testing.assert_array_equal(sim.weights("src->n"), 0.25)
+    assert sim.quantised.blocks[-1]["shift_excitatory"] == 2
+    assert np.all(sim.quantised.weights["src->n"]["value"] == round(0.25 * 2**13))
     acc = np.zeros((2, 1), dtype=np.int64)
     record = kl.SpikeRecord(np.zeros(1, np.bool_), np.zeros(4, np.int64), np.zeros(4, np.int64), np.zeros(1, np.int64))
     syn = kf.FixedSynapses(np.array([0, 1]), np.array([0]), np.array([40000]), np.array([1]))

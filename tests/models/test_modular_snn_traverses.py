@@ -38,11 +38,10 @@ def test_training_repeats_the_written_out_loop() -> None:
     sim = nv.compile(settings.network("module", seed), backend=settings.backend, dt=settings.dt, seed=seed)
     presenter = Presenter(sim, settings)
     order = np.random.default_rng([seed, 1]).permutation(places.size)
-    _, post = sim.connections(INPUT_PROJECTION)
     summed, shown = np.zeros((3, 10)), np.zeros(3)
     for epoch in range(settings.epochs):
         for j, k in enumerate(order):
-            normalise_input_weights(sim, settings.weight_sum, settings.params.w_max, post)
+            normalise_input_weights(sim, settings.weight_sum, settings.params.w_max)
             counts = presenter.present(images[places[k]])
             if epoch * 3 + j >= settings.epochs * 3 - 4:  # the last 4 presentations, while learning
                 summed[k] += counts
