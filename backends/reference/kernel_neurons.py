@@ -29,6 +29,7 @@ from .kernel_layout import (
     F_CA,
     F_INH,
 )
+from .libm import exp
 
 #: Synaptic currents (nA) and conductances (uS) below this are set to 0: their effect on
 #: the membrane is below 1e-19 mV per step, far below double precision of v.
@@ -132,7 +133,7 @@ def update_cond(lo, hi, flags, dt, plastic_on, neurons):
     for k in range(m):
         i = todo[k]
         v_inf = v_eq[k]
-        v[i] = v_inf + (v[i] - v_inf) * np.exp(rate[k])
+        v[i] = v_inf + (v[i] - v_inf) * exp(rate[k])
     n_spikes = 0
     for q in range(ulo, uhi):
         ie[q] = flush(ie[q] * p11e)

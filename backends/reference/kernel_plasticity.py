@@ -19,6 +19,7 @@ from .kernel_layout import (
     RULE_DIEHL_COOK,
     RULE_MULTIPLICATIVE,
 )
+from .libm import exp
 from .prefetch import prefetch
 
 
@@ -36,7 +37,7 @@ def table_decay(x, steps, table, r, dt, tau):
         return x * table[r, steps]
     if table[r, width - 1] == 0.0:
         return x * 0.0
-    return x * np.exp(-steps * dt / tau)
+    return x * exp(-steps * dt / tau)
 
 
 @njit(inline="always", _nrt=False)

@@ -85,7 +85,9 @@ from .kernel_sources import geometric_gap, queue_build, queue_due, queue_push
 
 #: The modules whose code the compiled entry points below are made of (numba caches them
 #: under a hash of all these files).
-CACHE_UNIT = ("kernels", "kernel_layout", "kernel_sources", "kernel_neurons", "kernel_plasticity", "kernel_delivery", "prefetch")
+CACHE_UNIT = (
+    "kernels", "kernel_layout", "kernel_sources", "kernel_neurons", "kernel_plasticity", "kernel_delivery", "prefetch", "libm"
+)  # fmt: skip
 
 
 def _step_loop(stamp: int) -> Callable[..., int]:
