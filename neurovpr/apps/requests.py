@@ -4,8 +4,8 @@
 ``options`` holds the model's own, a frozen dataclass the model declares
 (:attr:`~neurovpr.apps.modelapi.ModelPlugin.train_options`). Both are validated on
 construction by :func:`check_fields`: each field against its type hint (``int``,
-``float``, ``bool``, ``str``, ``Path``, ``Literal[...]``, ``X | None``,
-``tuple[X, ...]``) and, by name, against the ranges of :data:`NUMBERS`, so the
+``float``, ``bool``, ``str``, ``Path``, ``Literal[...]``, ``X | None``, a union of such
+classes, ``tuple[X, ...]``, ``Mapping[K, V]``) and, by name, against the ranges of :data:`NUMBERS`, so the
 command line and a notebook refuse the same values with the same sentence.
 """
 
@@ -23,7 +23,10 @@ from typing import Any, Literal
 
 from neurovpr.errors import ValidationError
 
-__all__ = ["Number", "NUMBERS", "TrainRequest", "EvalRequest", "check_fields"]
+__all__ = ["Number", "NUMBERS", "BackendOption", "TrainRequest", "EvalRequest", "check_fields"]
+
+#: The value of one backend option (``neurovpr.compile(..., name=value)``).
+BackendOption = bool | int | float | str | None
 
 _MAX_SEED = 2**63 - 1
 
@@ -95,7 +98,12 @@ def _coerce(owner: str, name: str, hint: Any, value: Any) -> Any:
         if value is None and type(None) in args:
             return None
         inner = [a for a in args if a is not type(None)]
-        return _coerce(owner, name, inner[0], value) if len(inner) == 1 else value
+        if len(inner) == 1:
+            return _coerce(owner, name, inner[0], value)
+        if all(isinstance(a, type) for a in inner) and not isinstance(value, tuple(inner)):
+            allowed = ", ".join(a.__name__ for a in inner) + (" or None" if type(None) in args else "")
+            raise ValidationError(f"{owner}.{name} is {value!r}; it must be a {allowed}.")
+        return value
     if origin is Literal:
         if value not in args:
             raise ValidationError(f"{owner}.{name} is {value!r}; it must be one of {', '.join(map(repr, args))}.")
@@ -104,6 +112,15 @@ def _coerce(owner: str, name: str, hint: Any, value: Any) -> Any:
         if isinstance(value, (str, os.PathLike)) or not isinstance(value, (list, tuple)):
             raise ValidationError(f"{owner}.{name} must be a sequence, got {value!r}.")
         return tuple(_coerce(owner, name, args[0], v) for v in value)
+    if origin is Mapping:
+        if not isinstance(value, Mapping):
+            raise ValidationError(f"{owner}.{name} must be a mapping, got {value!r}.")
+        key_hint, value_hint = args
+        checked = {
+            _coerce(owner, f"{name} key", key_hint, key): _coerce(owner, f"{name}[{key!r}]", value_hint, item)
+            for key, item in value.items()
+        }
+        return types.MappingProxyType(checked)
     if hint is Path:
         if not isinstance(value, (str, os.PathLike)):
             raise ValidationError(f"{owner}.{name} must be a path, got {value!r}.")
@@ -204,13 +221,7 @@ class EvalRequest:
     scheduler: str | None = None
     progress: bool = True
     options: Any = None
-    backend_options: Mapping[str, Any] = dataclasses.field(default_factory=dict)
+    backend_options: Mapping[str, BackendOption] = dataclasses.field(default_factory=dict)
 
     def __post_init__(self) -> None:
         check_fields(self)
-        for key, value in self.backend_options.items():
-            if not isinstance(key, str) or not (value is None or isinstance(value, (bool, int, float, str))):
-                raise ValidationError(
-                    f"EvalRequest.backend_options[{key!r}] is {value!r}; a backend option is a bool, number, string or None."
-                )
-        object.__setattr__(self, "backend_options", types.MappingProxyType(dict(self.backend_options)))
