@@ -140,7 +140,9 @@ class Compiled:
         for g in self.groups:  # inference: the adaptive thresholds are fixed, so each threshold is summed once
             if g.conductance:
                 g.p["v_thresh_theta"] = g.p["v_thresh"] + self.theta[g.lo : g.hi]
-            if fuse:
+            if fuse:  # the fused step's counters are values of the state's dtype (whole numbers, exact)
+                g.p["lock_steps_f"] = g.p["lock_steps"].to(dtype)
+                g.p["refrac_total_f"] = g.refrac_total.to(dtype)
                 g.packed = pack(g.p, g.conductance)
         self.below = flush_below(dtype)
         #: the compiled steps (option fuse), or None: the eager steps of .neurons
@@ -163,8 +165,6 @@ class Compiled:
             p["gl_rest"] = t(params["gl"] * params["v_rest"])
         total = t(params["refrac"] + params["lock"], torch.int32)
         p["lock_steps"] = t(params["lock"], torch.int32)
-        p["lock_steps_f"] = t(params["lock"])  # the fused step's counters are values of the state's dtype
-        p["refrac_total_f"] = t(params["refrac"] + params["lock"])
         return _Group(
             lo=run[0].lo, hi=run[-1].hi, members=tuple((g.name, g.lo, g.hi) for g in run), conductance=conductance,
             calcium=any(g.calcium for g in run), finite=bool(np.all(params["gl"] > 0)) if conductance else True, p=p,
