@@ -163,10 +163,6 @@ class FixedPointSimulation(ReferenceSimulation):
         super()._set_weights(projection, values)
         self._fx = self._quantise()
 
-    def _normalise_weights(self, projection: str, total: float, w_max: float | None) -> None:
-        super()._normalise_weights(projection, total, w_max)
-        self._fx = self._quantise()  # as after set_weights: the chip holds the new weights in its formats
-
     def _quantise(self) -> FixedLayout:
         assert self._hardware is not None
         return quantise(self._network, self._spec, self._lay, dt=self._dt, partition=self._hardware.partition)

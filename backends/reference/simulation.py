@@ -352,7 +352,9 @@ class ReferenceSimulation(Simulation):
             lay.d_w[lay.d_of_s[pos]] = values
 
     def _normalise_weights(self, projection: str, total: float, w_max: float | None) -> None:
-        if projection not in self._lay.proj_plastic:  # static: the generic way (convolution kernels, delivery copy)
+        # static projections the generic way, through _set_weights (convolution kernels, the delivery copy, and the
+        # requantisation of hardware emulation, which refuses plastic projections and so never takes the path below)
+        if projection not in self._lay.proj_plastic:
             super()._normalise_weights(projection, total, w_max)
             return
         store, pos = self._weight_store(projection)
