@@ -98,8 +98,9 @@ StaticTables = namedtuple("StaticTables", "seg_ptr seg_start seg post w blk_ptr 
 #: The ring of arrivals: static sums, their block marks (also as 64-bit words), the rows
 #: holding marks and the neuron range convolutions reached per row; the plastic events per
 #: slot, each three words (segment | projection << ``EV_SHIFT``, first synapse, end) and
-#: their number per slot.
-Arrivals = namedtuple("Arrivals", "buf dirty dirty_words row_any row_range ev ev_n")
+#: their number per slot; room to list the synapses of a slot's short plastic events
+#: (:func:`.kernel_plasticity.arrive_slot`).
+Arrivals = namedtuple("Arrivals", "buf dirty dirty_words row_any row_range ev ev_n listed")
 #: A plastic event's first word holds its segment in the low ``EV_SHIFT`` bits, its projection above.
 EV_SHIFT = 40
 EV_SEG = (1 << EV_SHIFT) - 1

@@ -6,6 +6,8 @@ import numpy as np
 from numba import njit
 
 from .kernel_layout import (
+    EV_SEG,
+    EV_SHIFT,
     R_DEP,
     R_KIND,
     R_MU,
@@ -18,6 +20,8 @@ from .kernel_layout import (
     RULE_ADDITIVE,
     RULE_DIEHL_COOK,
     RULE_MULTIPLICATIVE,
+    ST_PLASTIC_UPDATES,
+    ST_SYN_EVENTS,
 )
 from .libm import exp
 from .prefetch import prefetch
@@ -40,53 +44,90 @@ def table_decay(x, steps, table, r, dt, tau):
     return x * exp(-steps * dt / tau)
 
 
-@njit(inline="always", _nrt=False)
-def arrive(g, r, lo, hi, j, dt, plastic_on, syn, stdp, isyn):
-    """Spikes arriving at segment ``g`` (projection ``r``, synapses ``lo:hi``) at step ``j``: depress, deliver, update traces.
+#: Segments of at most this many synapses are listed (:func:`arrive_slot`).
+SHORT = 8
 
-    Each synapse is first depressed by the postsynaptic trace (its value at time ``j``)
-    and then delivers its new weight to ``isyn[0]`` (excitatory) or ``isyn[1]``
-    (inhibitory). Returns the number of weight updates. The loops branch only at their
-    end: a software prefetch of the next segment every 8 synapses cost more in
-    mispredicted branches than it saved (the Modular SNN's segments, one per input and
-    delay, hold about 4 synapses and end anywhere). ``syn`` and ``stdp`` are a
-    ``PlasticTables`` and ``Traces`` (:mod:`.kernel_layout`).
+
+@njit(inline="always", _nrt=False)
+def arrive_slot(slot, n_ev, ev, j, dt, plastic_on, syn, stdp, isyn, listed, stats):
+    """The plastic events of ring slot ``slot`` (``ev[slot, :n_ev]``) at step ``j``: depress, deliver, update pre traces.
+
+    Each event is a segment (one presynaptic spike, projection and delay) of synapses
+    ``lo:hi``; every synapse is first depressed by its postsynaptic trace (its value at
+    time ``j``) and then delivers its new weight to ``isyn[0]`` (excitatory) or
+    ``isyn[1]`` (inhibitory), in event order. The synapses of consecutive short events (at
+    most ``SHORT`` synapses) of one projection are listed first (``listed``, a whole block of
+    ``SHORT`` positions written per event, so the listing has no branch that depends on a
+    segment's length) and then handled in one loop: segments of the Modular SNN hold about
+    4 synapses each, and a loop per segment would mispredict its end at almost every one.
+    A longer segment is handled on its own, after the list. The segment's presynaptic trace
+    is updated when it is seen (the depression does not read it).
     """
-    p_post, p_w, proj_inh = syn.p_post, syn.p_w, syn.proj_inh
-    seg_xpre, seg_last, rules, pre_table, tr_shift = stdp.seg_xpre, stdp.seg_last, stdp.rules, stdp.pre_table, stdp.tr_shift
-    xpost1 = stdp.xpost1
-    rk = rules[r, R_KIND]
-    shift = tr_shift[r]  # trace of post neuron i: i + shift (>= 0)
-    w_min, w_max, dep = rules[r, R_W_MIN], rules[r, R_W_MAX], rules[r, R_DEP]
-    target = np.uint64(1 if proj_inh[r] else 0)
-    lo, hi = np.uint64(lo), np.uint64(hi)
-    updates = 0
-    if not plastic_on:
-        for q in range(lo, hi):
-            isyn[target, p_post[q]] += p_w[q]
-    elif rk == RULE_MULTIPLICATIVE:
-        updates = depress(lo, hi, shift, target, dep, dep, w_min, w_max, p_post, p_w, xpost1, isyn, True)
-    else:  # additive: w - dep w_max x_post; Diehl & Cook: w - dep x_post
-        step = dep * w_max if rk == RULE_ADDITIVE else dep
-        updates = depress(lo, hi, shift, target, step, dep, w_min, w_max, p_post, p_w, xpost1, isyn, False)
-    if rk == RULE_DIEHL_COOK:
-        seg_xpre[g] = 1.0
-    else:
-        seg_xpre[g] = table_decay(seg_xpre[g], j - seg_last[g], pre_table, r, dt, rules[r, R_TAU_PRE]) + 1.0
-    seg_last[g] = j
-    return updates
+    rules, seg_xpre, seg_last = stdp.rules, stdp.seg_xpre, stdp.seg_last
+    room = listed.size - SHORT
+    m = 0
+    r_run = -1
+    for e in range(n_ev):
+        code, lo, hi = ev[slot, e, 0], ev[slot, e, 1], ev[slot, e, 2]
+        g, r = code & EV_SEG, code >> EV_SHIFT
+        n = hi - lo
+        if m > 0 and (r != r_run or n > SHORT or m + n > room):
+            stats[ST_PLASTIC_UPDATES] += arrive_synapses(listed, 0, m, False, r_run, plastic_on, syn, stdp, isyn)
+            m = 0
+        if n > SHORT:
+            stats[ST_PLASTIC_UPDATES] += arrive_synapses(listed, lo, n, True, r, plastic_on, syn, stdp, isyn)
+        else:
+            at = np.uint64(m)
+            for t in range(SHORT):
+                listed[at + np.uint64(t)] = np.uint64(lo + t)
+            m += n
+            r_run = r
+        stats[ST_SYN_EVENTS] += n
+        if rules[r, R_KIND] == RULE_DIEHL_COOK:
+            seg_xpre[g] = 1.0
+        else:
+            seg_xpre[g] = table_decay(seg_xpre[g], j - seg_last[g], stdp.pre_table, r, dt, rules[r, R_TAU_PRE]) + 1.0
+        seg_last[g] = j
+    if m > 0:
+        stats[ST_PLASTIC_UPDATES] += arrive_synapses(listed, 0, m, False, r_run, plastic_on, syn, stdp, isyn)
 
 
 @njit(inline="always", _nrt=False)
-def depress(lo, hi, shift, target, step, dep, w_min, w_max, p_post, p_w, xpost1, isyn, mult):
-    """Depress synapses ``lo:hi`` by their postsynaptic traces and deliver them; return the updates.
+def arrive_synapses(listed, lo, m, direct, r, plastic_on, syn, stdp, isyn):
+    """Depress and deliver ``m`` synapses of projection ``r`` in order; return the weight updates.
+
+    The synapses are ``lo .. lo + m`` when ``direct``, else ``listed[:m]`` (``direct`` is a
+    constant at each call, so each loop reads its synapses one way).
+    """
+    p_post, p_w = syn.p_post, syn.p_w
+    rules, xpost1 = stdp.rules, stdp.xpost1
+    rk = rules[r, R_KIND]
+    shift = stdp.tr_shift[r]  # trace of post neuron i: i + shift (>= 0)
+    w_min, w_max, dep = rules[r, R_W_MIN], rules[r, R_W_MAX], rules[r, R_DEP]
+    target = np.uint64(1 if syn.proj_inh[r] else 0)
+    base = np.uint64(lo)  # unsigned indices: no negative-index wrap
+    if not plastic_on:
+        for t in range(np.uint64(m)):
+            q = base + t if direct else listed[t]
+            isyn[target, p_post[q]] += p_w[q]
+        return 0
+    if rk == RULE_MULTIPLICATIVE:
+        return depress(listed, base, m, direct, shift, target, dep, dep, w_min, w_max, p_post, p_w, xpost1, isyn, True)
+    step = dep * w_max if rk == RULE_ADDITIVE else dep  # additive: w - dep w_max x_post; Diehl & Cook: w - dep x_post
+    return depress(listed, base, m, direct, shift, target, step, dep, w_min, w_max, p_post, p_w, xpost1, isyn, False)
+
+
+@njit(inline="always", _nrt=False)
+def depress(listed, base, m, direct, shift, target, step, dep, w_min, w_max, p_post, p_w, xpost1, isyn, mult):
+    """Depress ``m`` synapses (see :func:`arrive_synapses`) by their postsynaptic traces and deliver them; return the updates.
 
     ``w - step x_post`` (additive, Diehl & Cook), or ``w - dep (w - w_min) x_post`` when
     ``mult`` (a constant at each call, so each loop computes one form), clipped to
     ``[w_min, w_max]``, without branches: a zero trace keeps the weight.
     """
     updates = 0
-    for q in range(lo, hi):
+    for t in range(np.uint64(m)):
+        q = base + t if direct else listed[t]
         post = p_post[q]
         x_post = xpost1[np.uint64(post + shift)]
         w = p_w[q]

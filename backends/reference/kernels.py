@@ -62,8 +62,6 @@ from .kernel_layout import (
     C_REFRAC,
     C_THETA_PLUS,
     C_V_RESET,
-    EV_SEG,
-    EV_SHIFT,
     G_FLAGS,
     G_HI,
     G_KIND,
@@ -73,14 +71,13 @@ from .kernel_layout import (
     ST_NEURON_UPDATES,
     ST_PLASTIC_UPDATES,
     ST_STEPS,
-    ST_SYN_EVENTS,
     VAR_EXC,
     VAR_INH,
     VAR_THETA,
     VAR_V,
 )
 from .kernel_neurons import update_cond, update_curr
-from .kernel_plasticity import arrive, decay_post_traces, post_traces, potentiate
+from .kernel_plasticity import arrive_slot, decay_post_traces, post_traces, potentiate
 from .kernel_sources import geometric_gap, queue_build, queue_due, queue_push
 
 #: The modules whose code the compiled entry points below are made of (numba caches them
@@ -149,12 +146,7 @@ def _step_loop(stamp: int) -> Callable[..., int]:
                     emit(arr_neuron[arr_ptr[0]], j, slot, width, counts, stats, record, static, arrivals, conv, syn)
                 arr_ptr[0] += 1
             # 2. arrivals at plastic synapses (post traces hold their value at time j)
-            n_ev = ev_n[slot]
-            for e in range(n_ev):
-                code, lo, hi = ev[slot, e, 0], ev[slot, e, 1], ev[slot, e, 2]
-                updates = arrive(code & EV_SEG, code >> EV_SHIFT, lo, hi, j, dt, plastic_on, syn, stdp, isyn)
-                stats[ST_PLASTIC_UPDATES] += updates
-                stats[ST_SYN_EVENTS] += hi - lo
+            arrive_slot(slot, ev_n[slot], ev, j, dt, plastic_on, syn, stdp, isyn, arrivals.listed, stats)
             ev_n[slot] = 0
             # postsynaptic traces advance to the end of the step
             decay_post_traces(stdp)

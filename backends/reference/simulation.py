@@ -136,6 +136,7 @@ class ReferenceSimulation(Simulation):
             self._xpost1 = np.zeros(lay.n_traces)
             self._xpost2 = np.zeros(lay.n_traces)
             self._ev_n = np.zeros(lay.ring, dtype=np.int64)
+            self._listed = np.zeros(4096, dtype=np.uint64)  # kernel scratch: synapses of a slot's short plastic events
             self._rec_n = np.zeros(1, dtype=np.int64)
         else:
             self._v[:] = self._v_init
@@ -245,7 +246,9 @@ class ReferenceSimulation(Simulation):
             ),
             self._spike_record(),
             kl.StaticTables(lay.d_seg_ptr, lay.d_seg_start, lay.d_seg, lay.d_post, lay.d_w, lay.d_blk_ptr, lay.d_blk),
-            kl.Arrivals(self._buf, self._dirty, self._dirty_words, self._row_any, self._row_range, self._ev, self._ev_n),
+            kl.Arrivals(
+                self._buf, self._dirty, self._dirty_words, self._row_any, self._row_range, self._ev, self._ev_n, self._listed
+            ),
             kl.ConvTables(lay.cv_index, lay.cv_par, lay.cv_w),
             kl.PlasticTables(
                 lay.row_seg_ptr, lay.seg_start, lay.seg_delay, lay.seg_proj, lay.p_post, lay.p_w, lay.post_ptr,
