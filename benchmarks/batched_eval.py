@@ -82,7 +82,7 @@ def _timed(fn, *args, **kwargs):
 
 def modular(args: argparse.Namespace) -> dict:
     """Time one module's query phase on each backend; extrapolate one member of 500 and 2,400 places."""
-    from neurovpr.models.modular_snn import TrainingSettings
+    from neurovpr.models.modular_snn import ModuleParameters, TrainingSettings
     from neurovpr.models.modular_snn.deployment import static_network
     from neurovpr.models.modular_snn.plugin import load_traverse
     from neurovpr.models.modular_snn.training import Presenter, record_responses, train_module
@@ -95,7 +95,7 @@ def modular(args: argparse.Namespace) -> dict:
     n_q = min(args.queries, len(traverse.query))
     pick = np.linspace(0, len(traverse.query) - 1, n_q).astype(int)
     queries = traverse.query.preprocessed()[pick].reshape(n_q, -1)
-    settings = TrainingSettings(epochs=args.epochs, module_size=MODULE)
+    settings = TrainingSettings(params=ModuleParameters(integration=args.integration), epochs=args.epochs, module_size=MODULE)
     (network, _, _, _), t_train, _ = _timed(train_module, reference, np.arange(MODULE), settings, seed=1, name="module")
     print(f"trained one module on {MODULE} nordland64 places ({args.epochs} epoch(s)) in {t_train:.0f} s", flush=True)
     static = static_network(network)
@@ -189,6 +189,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--data", type=Path, default=None, help="Modular SNN data (default: the shared nordland64)")
     p.add_argument("--queries", type=int, default=200, help="query images through the module")
     p.add_argument("--epochs", type=int, default=1, help="training epochs of the module")
+    p.add_argument("--integration", choices=("euler", "exact"), default="euler",
+                   help="the module's cell steps (ModuleParameters.integration; default euler, the model's)")  # fmt: skip
     p.add_argument("--batch-size", type=int, default=256, help="items the torch backend simulates at once")
     p.add_argument("--threads", type=int, default=1, help="the torch backend's CPU threads (its option threads)")
     p.add_argument("--dtypes", default="float64", help="the torch backend's dtypes to time, comma-separated (float64, float32)")

@@ -54,7 +54,7 @@ import numpy as np
 
 from neurovpr.data.traverse import Traverse
 from neurovpr.fileio import atomic_write_bytes, atomic_write_text
-from neurovpr.models.modular_snn import TrainingSettings, member_similarities, query_responses, train_run
+from neurovpr.models.modular_snn import ModuleParameters, TrainingSettings, member_similarities, query_responses, train_run
 from neurovpr.models.modular_snn.parallel import default_workers
 from neurovpr.models.modular_snn.plan import default_calibration_places, describe_plan
 from neurovpr.models.modular_snn.plugin import load_traverse
@@ -102,6 +102,8 @@ def _args() -> argparse.Namespace:
     p.add_argument("--resume", action="store_true", help="continue a run in --out")
     p.add_argument("--only-members", default=None, help="train and save only these members, e.g. 3,4 (see the docstring)")
     p.add_argument("--combine", action="store_true", help="evaluate from the saved matrices of every member in --out")
+    p.add_argument("--integration", choices=("euler", "exact"), default="euler",
+                   help="cell steps (ModuleParameters.integration; default euler, as the authors' code)")  # fmt: skip
     return p.parse_args()
 
 
@@ -159,7 +161,7 @@ def main() -> int:
     traverse = select_places(load_traverse(data), args.subset, args.places)
     reference = traverse.reference.preprocessed()
     query = traverse.query.preprocessed()
-    settings = TrainingSettings(epochs=args.epochs, module_size=MODULE)
+    settings = TrainingSettings(params=ModuleParameters(integration=args.integration), epochs=args.epochs, module_size=MODULE)
     if args.calibration_places is None:
         args.calibration_places = default_calibration_places(args.places, MODULE)
     run_dir, sim_dir = args.out / "run", args.out / "similarity"

@@ -93,8 +93,9 @@ def _args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--dt", type=float, default=None, help="neurovpr side: the time step, ms (default: the model's, 0.1)")
     p.add_argument("--delay-recurrent", type=float, default=None,
                    help="neurovpr side: the E->I and I->E delay, ms (default: the model's, 0 as in the code)")  # fmt: skip
-    p.add_argument("--euler-conductances", action="store_true",
-                   help="neurovpr side: the code's Euler conductance decay (ModuleParameters.euler_conductances)")  # fmt: skip
+    p.add_argument("--integration", choices=("exact", "euler"), default=None,
+                   help="neurovpr side: how a step advances the cells (ModuleParameters.integration; default: the "
+                        "model's; euler: the code's forward-Euler steps)")  # fmt: skip
     return p.parse_args(argv)
 
 
@@ -117,7 +118,8 @@ def neurovpr_facts(args: argparse.Namespace, s: OracleSettings, traverse: Traver
     """Train and evaluate one modular SNN here with the same settings; the same figures as :func:`collect_facts`."""
     settings = TrainingSettings(
         params=ModuleParameters(
-            n_neurons=s.n_e, euler_conductances=args.euler_conductances,
+            n_neurons=s.n_e,
+            **({} if args.integration is None else {"integration": args.integration}),
             **({} if args.delay_recurrent is None else {"delay_recurrent": args.delay_recurrent}),
         ),
         epochs=s.epochs, module_size=s.module_size,

@@ -82,12 +82,13 @@ def mbsnn(duration_ms: float, repeats: int, seed: int) -> dict:
     return {"cpu_s": min(cpu), "wall_s": min(wall), "cpu_all": cpu, "result": sorted(results)}
 
 
-def modular_module(n_images: int, repeats: int, seed: int) -> dict:
-    """Train a Modular SNN module (the model's defaults) on ``n_images`` synthetic images, then record them; CPU s per image."""
-    from neurovpr.models.modular_snn import TrainingSettings
+def modular_module(n_images: int, repeats: int, seed: int, integration: str = "euler") -> dict:
+    """Train a Modular SNN module (the model's defaults, ``integration`` steps) on ``n_images`` synthetic images,
+    then record them; CPU s per image."""
+    from neurovpr.models.modular_snn import ModuleParameters, TrainingSettings
     from neurovpr.models.modular_snn.training import Presenter, normalise_input_weights
 
-    settings = TrainingSettings()
+    settings = TrainingSettings(params=ModuleParameters(integration=integration))
     images = np.random.default_rng(seed).integers(0, 256, size=(n_images, settings.params.n_input)).astype(np.uint8)
     train, record, results = [], [], set()
     for _ in range(repeats):
@@ -115,6 +116,8 @@ def main() -> None:
     parser.add_argument("--places", type=int, default=40, help="images for the Diehl & Cook module")
     parser.add_argument("--mbsnn-ms", type=float, default=4000.0, help="simulated ms of mushroom-body learning")
     parser.add_argument("--modular-images", type=int, default=10, help="images for the Modular SNN module (0: not run)")
+    parser.add_argument("--modular-integration", choices=("euler", "exact"), default="euler",
+                        help="the Modular SNN module's cell steps (default euler, the model's)")  # fmt: skip
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--seed", type=int, default=1)
     parser.add_argument("--json", type=Path, default=None)
@@ -123,7 +126,9 @@ def main() -> None:
         f"D&C module, {args.places} images": dc_module(args.places, args.repeats, args.seed),
         f"MBSNN 4000 KCs, {args.mbsnn_ms:.0f} ms": mbsnn(args.mbsnn_ms, args.repeats, args.seed),
     }
-    modular = modular_module(args.modular_images, args.repeats, args.seed) if args.modular_images else None
+    modular = (
+        modular_module(args.modular_images, args.repeats, args.seed, args.modular_integration) if args.modular_images else None
+    )
     print(f"reference backend, fastest of {args.repeats}; machine: {platform.processor() or platform.machine()}")
     print(f"{'run':32s}{'cpu s':>9s}{'wall s':>9s}  result (spikes, ...)")
     for name, r in rows.items():

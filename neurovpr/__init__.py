@@ -22,6 +22,7 @@ from neurovpr.errors import (
     ValidationError,
 )
 from neurovpr.ir.cells import (
+    INTEGRATIONS,
     NO_LEAK,
     IF_cond_exp,
     IF_cond_exp_adaptive,
@@ -61,6 +62,7 @@ __version__ = "0.1.0"
 __all__ = [
     "AdditiveWeightDependence",
     "BatchResult",
+    "INTEGRATIONS",
     "NO_LEAK",
     "AllToAllConnector",
     "BackendUnavailableError",

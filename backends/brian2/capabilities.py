@@ -18,5 +18,6 @@ CAPABILITIES = Capabilities(
     learns=True,
     heterogeneous_delays=True,
     zero_delays=True,  # between neurons (Brian2's zero delay); from a spike source they are refused when built
+    euler_integration=True,  # Brian2's method='euler'
     recordables=EVERY_RECORDABLE,
 )

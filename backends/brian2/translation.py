@@ -27,7 +27,9 @@ Numerical notes (see also the package docstring):
   each conductance by ``f_X = tau_syn_X / dt (1 - exp(-dt / tau_syn_X))``, the mean of an
   exponentially decaying conductance over one step relative to its start value, so that
   Brian2's exponential-Euler step is exactly the semantics' update (the membrane is
-  integrated exactly with the step's mean conductances).
+  integrated exactly with the step's mean conductances). A cell with
+  ``integration="euler"`` uses Brian2's ``euler`` on the same equations with ``f_X = 1``:
+  every variable takes the forward-Euler step from its value at the step's start.
 - Refractoriness uses Brian2's own mechanism (``lastspike``, ``not_refractory`` and the
   threshold's ``and not_refractory``): ``refractory`` is ``(R + 1) dt`` with
   ``R = round(tau_refrac / dt)``, because Brian2 counts the step of the spike itself,
@@ -48,6 +50,7 @@ from typing import Any
 import numpy as np
 
 from neurovpr.backendkit.params import per_neuron
+from neurovpr.backendkit.propagators import euler_integrated, euler_time_constants
 from neurovpr.errors import UnsupportedFeatureError
 from neurovpr.ir.cells import (
     IF_cond_exp,
@@ -224,10 +227,14 @@ def neuron_model(cell: NeuronType, n: int, dt: float, v_init: Any) -> NeuronMode
         equations = _COND_V + _COMMON
         params["e_rev_E"] = per_neuron(cell.e_rev_E, n) * _MV
         params["e_rev_I"] = per_neuron(cell.e_rev_I, n) * _MV
-        params["f_E"] = get["tau_syn_E"] / dt * -np.expm1(-dt / get["tau_syn_E"])
-        params["f_I"] = get["tau_syn_I"] / dt * -np.expm1(-dt / get["tau_syn_I"])
         initial.update(g_E=np.zeros(n), g_I=np.zeros(n))
         threshold, reset, method = _THRESHOLD, _RESET, "exponential_euler"
+        if euler_integrated(cell):  # Brian2's forward Euler on the same equations, conductances at the step's start
+            euler_time_constants(cell, n, dt)
+            params["f_E"], params["f_I"], method = np.ones(n), np.ones(n), "euler"
+        else:
+            params["f_E"] = get["tau_syn_E"] / dt * -np.expm1(-dt / get["tau_syn_E"])
+            params["f_I"] = get["tau_syn_I"] / dt * -np.expm1(-dt / get["tau_syn_I"])
         if isinstance(cell, IF_cond_exp_adaptive):
             equations += _THETA_EQ
             params["tau_theta"] = per_neuron(cell.tau_theta, n) * _MS

@@ -46,6 +46,12 @@ class ReferenceBackend(Backend):
                 f"Backend 'reference' cannot emulate hardware {hardware.name!r} with projection {zero!r}: it has a zero "
                 "delay, where the chips' synapses take at least one time step."
             )
+        euler = next((p.name for p in network.populations.values() if getattr(p.cell_type, "integration", "") == "euler"), None)
+        if hardware is not None and euler is not None:
+            raise UnsupportedFeatureError(
+                f"Backend 'reference' cannot emulate hardware {hardware.name!r} with population {euler!r}: its cells take "
+                "forward-Euler steps (integration='euler'), where the chips integrate in their own arithmetic."
+            )
         if hardware is not None and hardware.spec.formats.arithmetic == "xylo":
             from .xylo import XyloSimulation
 

@@ -36,6 +36,7 @@ CAPABILITIES = Capabilities(
     learns=True,
     heterogeneous_delays=True,
     zero_delays=True,  # in floating point; the chip arithmetics refuse them (see the backend's _compile)
+    euler_integration=True,  # in floating point, as zero delays
     arithmetic=frozenset(RECORDABLE_ON_HARDWARE),
     recordables=EVERY_RECORDABLE,
 )

@@ -56,6 +56,8 @@ F_INH = 1
 F_CA = 2
 #: The group has an adaptive threshold.
 F_ADAPTIVE = 4
+#: The group takes forward-Euler membrane steps (``IF_cond_exp_adaptive(integration="euler")``).
+F_EULER = 8
 
 # Rule kinds and columns of the plasticity rule table.
 RULE_ADDITIVE, RULE_MULTIPLICATIVE, RULE_DIEHL_COOK = 0, 1, 2

@@ -27,6 +27,7 @@ from .kernel_layout import (
     C_V_THRESH,
     F_ADAPTIVE,
     F_CA,
+    F_EULER,
     F_INH,
 )
 from .libm import exp
@@ -130,10 +131,16 @@ def update_cond(lo, hi, flags, dt, plastic_on, neurons):
                 v_eq[m] = (gl * rest + ge * e_rev_e + gi * e_rev_i + i_off) / gt
                 rate[m] = -dt * gt / cm
                 m += np.uint64(1)
-    for k in range(m):
-        i = todo[k]
-        v_inf = v_eq[k]
-        v[i] = v_inf + (v[i] - v_inf) * exp(rate[k])
+    if (flags & F_EULER) != 0:  # forward Euler: 1 - dt gt / cm instead of exp(-dt gt / cm)
+        for k in range(m):
+            i = todo[k]
+            v_inf = v_eq[k]
+            v[i] = v_inf + (v[i] - v_inf) * (1.0 + rate[k])
+    else:
+        for k in range(m):
+            i = todo[k]
+            v_inf = v_eq[k]
+            v[i] = v_inf + (v[i] - v_inf) * exp(rate[k])
     n_spikes = 0
     for q in range(ulo, uhi):
         ie[q] = flush(ie[q] * p11e)

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from neurovpr.backendkit.propagators import propagators
+from neurovpr.backendkit.propagators import euler_integrated, propagators
 from neurovpr.backendkit.timing import delay_steps
 from neurovpr.ir.cells import (
     IF_cond_exp,
@@ -62,6 +62,7 @@ from .kernel_layout import (
     C_V_THRESH,
     F_ADAPTIVE,
     F_CA,
+    F_EULER,
     F_INH,
     G_FLAGS,
     G_HI,
@@ -405,6 +406,8 @@ def _flags(cell: object, inhibited: bool) -> int:
         flags |= F_CA
     if isinstance(cell, IF_cond_exp_adaptive):
         flags |= F_ADAPTIVE
+    if euler_integrated(cell):
+        flags |= F_EULER
     return flags
 
 

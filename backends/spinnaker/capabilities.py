@@ -23,6 +23,7 @@ REASONS = MappingProxyType(
         "DiehlCookSTDP": "sPyNNaker has no timing or weight dependence for Diehl & Cook's rule",
         "SoftLIF": "it is a rate approximation used only for training",
         "zero delay": "sPyNNaker's synapses take at least one time step",
+        "euler integration": "sPyNNaker's neuron models integrate in their own fixed-point form, which cannot be chosen",
     }
 )
 

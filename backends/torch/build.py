@@ -54,6 +54,7 @@ class _Group:
     conductance: bool
     calcium: bool
     finite: bool  #: every neuron has a leak (gl > 0), or the group is current-based
+    euler: bool  #: forward-Euler membrane steps (``integration="euler"``; never merged with exact ones)
     p: dict[str, torch.Tensor]
     refrac_total: torch.Tensor
     packed: torch.Tensor | None = None  #: the parameters as the fused step reads them (option fuse)
@@ -117,7 +118,8 @@ class Compiled:
 
         runs: list[list[NeuronGroup]] = []
         for g in layout.groups:
-            if runs and runs[-1][-1].conductance == g.conductance and runs[-1][-1].hi == g.lo:
+            last = runs[-1][-1] if runs else None
+            if last is not None and (last.conductance, last.euler) == (g.conductance, g.euler) and last.hi == g.lo:
                 runs[-1].append(g)
             else:
                 runs.append([g])
@@ -168,7 +170,7 @@ class Compiled:
         return _Group(
             lo=run[0].lo, hi=run[-1].hi, members=tuple((g.name, g.lo, g.hi) for g in run), conductance=conductance,
             calcium=any(g.calcium for g in run), finite=bool(np.all(params["gl"] > 0)) if conductance else True, p=p,
-            refrac_total=total,
+            refrac_total=total, euler=run[0].euler,
         )  # fmt: skip
 
 
@@ -335,7 +337,7 @@ class BatchState:
         ie, ii = self.isyn[0, :, sl], self.isyn[1, :, sl]
         arrive_e, arrive_i = slot[0, :, sl], slot[1, :, sl]
         if g.conductance:
-            return k.conductance(v, ie, ii, arrive_e, arrive_i, refr, counts, g.packed)
+            return k.conductance(v, ie, ii, arrive_e, arrive_i, refr, counts, g.packed, g.euler)
         return k.current(v, ie, ii, arrive_e, arrive_i, self.ica[:, sl], refr, counts, g.packed, g.calcium)
 
     def _current(self, g: _Group, scratch: Scratch) -> torch.Tensor:
@@ -346,7 +348,7 @@ class BatchState:
     def _conductance(self, g: _Group, scratch: Scratch) -> torch.Tensor:
         sl = slice(g.lo, g.hi)
         v, ie, ii, refr = self.v[:, sl], self.isyn[0, :, sl], self.isyn[1, :, sl], self.refr[:, sl]
-        return conductance_step(v, ie, ii, refr, g.p, self.dt, self.net.below, scratch, self.net.lerp and g.finite)
+        return conductance_step(v, ie, ii, refr, g.p, self.dt, self.net.below, scratch, self.net.lerp and g.finite, euler=g.euler)
 
 
 def spiking(spikes: torch.Tensor) -> tuple[torch.Tensor, torch.Tensor]:

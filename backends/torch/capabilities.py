@@ -33,6 +33,7 @@ _PLASTIC = {"STDPMechanism": LEARNING_REFUSAL, "DiehlCookSTDP": LEARNING_REFUSAL
 _UNSUPPORTED = {
     "theta_adaptation": "adaptive thresholds are learned state; the torch backend holds theta fixed (" + LEARNING_REFUSAL + ")",
     "plasticity_off": LEARNING_REFUSAL,
+    "euler_theta": "adaptive thresholds are learned state; the torch backend holds theta fixed (" + LEARNING_REFUSAL + ")",
 }
 
 CAPABILITIES = Capabilities(
@@ -42,6 +43,7 @@ CAPABILITIES = Capabilities(
     learns=False,
     heterogeneous_delays=True,
     zero_delays=True,
+    euler_integration=True,
     recordables=EVERY_RECORDABLE,
     reasons=MappingProxyType(_PLASTIC),
     unsupported=MappingProxyType(_UNSUPPORTED),

@@ -55,7 +55,7 @@ def pack(p: dict[str, torch.Tensor], conductance: bool) -> torch.Tensor:
 
 @dataclass(frozen=True)
 class Kernels:
-    """The compiled steps of a group: ``conductance(v, ie, ii, arrive_e, arrive_i, refr, counts, packed)`` and
+    """The compiled steps of a group: ``conductance(v, ie, ii, arrive_e, arrive_i, refr, counts, packed, euler)`` and
     ``current(v, ie, ii, arrive_e, arrive_i, ica, refr, counts, packed, calcium)``.
 
     Both add the step's arrivals (``arrive_e``, ``arrive_i``: the group's columns of the delay
@@ -85,7 +85,7 @@ def kernels(dt: float, below: float) -> Kernels:
         spikes = torch.where(v >= threshold, torch.where(counter == 0.0, 1.0, 0.0), 0.0)
         return spikes.to(v.dtype), counter
 
-    def conductance(v: T, ie_state: T, ii_state: T, arrive_e: T, arrive_i: T, refr: T, counts: T, packed: T) -> T:
+    def conductance(v: T, ie_state: T, ii_state: T, arrive_e: T, arrive_i: T, refr: T, counts: T, packed: T, euler: bool) -> T:
         # the arrivals of the step, then the arithmetic of .neurons.conductance_step, in its order
         p = dict(zip(CONDUCTANCE, packed.unbind(0), strict=True))
         ie, ii = arrived(ie_state, arrive_e), arrived(ii_state, arrive_i)
@@ -93,7 +93,7 @@ def kernels(dt: float, below: float) -> Kernels:
         gi = ii * p["fi"]
         gt = ge + p["gl"] + gi
         v_inf = (ge * p["e_rev_e"] + p["gl_rest"] + gi * p["e_rev_i"] + p["i_offset"]) / gt
-        factor = torch.exp(gt * -dt / p["cm"])
+        factor = gt * -dt / p["cm"] + 1.0 if euler else torch.exp(gt * -dt / p["cm"])
         moved = (v - v_inf) * factor + v_inf
         leak = (v - p["v_rest"]) * p["p22"] + p["v_rest"] + p["i_offset_p20"]
         free = torch.where(ie != 0.0, moved, torch.where(ii != 0.0, moved, leak))

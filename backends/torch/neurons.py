@@ -119,7 +119,7 @@ def current_step(
 
 def conductance_step(
     v: torch.Tensor, ie: torch.Tensor, ii: torch.Tensor, refr: torch.Tensor,
-    p: dict[str, torch.Tensor], dt: float, below: float, s: Scratch, lerp: bool,
+    p: dict[str, torch.Tensor], dt: float, below: float, s: Scratch, lerp: bool, *, euler: bool = False,
 ) -> torch.Tensor:  # fmt: skip
     """Advance conductance-based neurons (``IF_cond_exp``, ``IF_cond_exp_adaptive``) one step.
 
@@ -127,7 +127,9 @@ def conductance_step(
     fixed (learned) value. ``below`` is :func:`flush_below` of the state's dtype; ``s`` the
     group's :class:`Scratch`; ``lerp``: choose between two membranes with ``torch.lerp``
     rather than ``torch.where`` (only where every neuron of the group has a leak, ``gl > 0``,
-    so that the membrane with conductances is finite everywhere).
+    so that the membrane with conductances is finite everywhere); ``euler``: the group takes
+    forward-Euler steps (``integration="euler"``: ``1 - dt gt / cm`` for ``exp(-dt gt / cm)``,
+    the other factors from :func:`neurovpr.backendkit.propagators.propagators`).
     """
     # leak = rest + (v - rest) * p22 + i_offset * p20;
     # v_inf = (gl * rest + ge * e_rev_e + gi * e_rev_i + i_offset) / gt with gt = gl + ge + gi, ge = ie * fe, gi = ii * fi;
@@ -136,7 +138,8 @@ def conductance_step(
     gi = torch.mul(ii, p["fi"], out=s.b)
     gt = torch.add(ge, p["gl"], out=s.c).add_(gi)
     v_inf = ge.mul_(p["e_rev_e"]).add_(p["gl_rest"]).add_(gi.mul_(p["e_rev_i"])).add_(p["i_offset"]).div_(gt)
-    factor = gt.mul_(-dt).div_(p["cm"]).exp_()
+    factor = gt.mul_(-dt).div_(p["cm"])
+    factor = factor.add_(1.0) if euler else factor.exp_()
     moved = torch.sub(v, v_inf, out=s.b).mul_(factor).add_(v_inf)
     leak = torch.sub(v, p["v_rest"], out=s.c).mul_(p["p22"]).add_(p["v_rest"]).add_(p["i_offset_p20"])
     if lerp:  # 1 where either conductance is not 0: moved, else the leak; held (counter past the lockout): v

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from neurovpr.backendkit.propagators import propagators
+from neurovpr.backendkit.propagators import euler_integrated, propagators
 from neurovpr.backendkit.timing import delay_steps
 from neurovpr.ir.cells import IF_cond_exp, IF_cond_exp_adaptive, IF_curr_exp_ca2_adaptive
 from neurovpr.ir.connectivity import Connections
@@ -49,6 +49,7 @@ class NeuronGroup:
     adaptive: bool
     calcium: bool
     params: Mapping[str, np.ndarray]
+    euler: bool = False  #: forward-Euler membrane steps (``integration="euler"``)
 
 
 @dataclass(frozen=True)
@@ -110,6 +111,7 @@ def build_layout(
                 adaptive=isinstance(cell, IF_cond_exp_adaptive),
                 calcium=isinstance(cell, IF_curr_exp_ca2_adaptive),
                 params=propagators(cell, pop.size, dt, pop.v_init),
+                euler=euler_integrated(cell),
             )
         )
         lo += pop.size

@@ -47,10 +47,11 @@ that gives the paper's text where a user may want it:
   (``--dt 0.5``, cheaper) it closes in 1 ms, and with the 50 ms lockout every neuron then
   fires at the lockout's pace (about 7 spikes per image instead of about 1, all neurons of a
   module on one place; ``tests/models/test_modular_snn_statistics.py``); paper: not stated.
-- integration: exact over each step (the code: Euler); the code's Euler decay of the
-  conductances (``1 - dt / tau`` per step) is ``ModuleParameters(euler_conductances=True)``
-  (same spikes per image within 1 % on the oracle subset, see :mod:`.network`); the 150 ms
-  rest after each image is replaced by a reset of the state (``--simulate-rest`` simulates it).
+- integration: forward-Euler steps of every cell variable, as the code's ``method='euler'``
+  (``IF_cond_exp(integration="euler")``); paper: not stated (``--integration exact``, the
+  exact step, fires 10-13 % more often per image than the code, see :mod:`.network`); the
+  150 ms rest after each image is replaced by a reset of the state (``--simulate-rest``
+  simulates it).
 
 Not reproduced: the code's evaluation gives a row only to the labels some neuron holds
 (-1, unassigned, included), here every place has a row and one without neurons scores 0;

@@ -40,16 +40,17 @@ where ``dtimer/dt = 0.1`` and ``timer = 0`` at a spike: a neuron cannot fire aga
 50 ms. Here that is ``IF_cond_exp_adaptive(tau_refrac=refrac_e, tau_lockout=lockout_e)``
 with ``refrac_e = 5``, ``lockout_e = 50`` (``lockout_e = 0`` gives the paper's 5 ms).
 
-Conductance steps. The code integrates every equation with Brian2's ``method='euler'`` at
-dt 0.1 ms, so its conductances decay by ``1 - dt / tau`` per step (0.9 for ``tau_ge`` = 1 ms,
-0.8 for ``tau_gi`` = 0.5 ms) where the exact decay is ``exp(-dt / tau)`` (0.905, 0.819): held
-over each step, the exact form delivers 5 % more excitatory and 10 % more inhibitory charge
-per spike. ``euler_conductances=True`` reproduces the code's per-step factors exactly (the
-cell's time constants become ``-dt / ln(1 - dt / tau)``, so the graph is then built for one
-``dt``); the default keeps the exact decay. On the oracle subset the two give the same
-spikes per image within 1 % (``benchmarks/modular_snn_vs_authors.py --euler-conductances``).
-The membrane's Euler step differs from the exact one by ``(dt g / cm)^2 / 2`` of the
-distance to its equilibrium per step (below 1e-4 here), which is not reproduced.
+Integration. The code integrates every equation with Brian2's ``method='euler'`` at dt 0.1 ms:
+its conductances decay by ``1 - dt / tau`` per step (0.9 for ``tau_ge`` = 1 ms, 0.8 for
+``tau_gi`` = 0.5 ms, against the exact 0.905 and 0.819) and act with their values at the step's
+start, and its membranes move by ``dt / cm`` times their current. ``integration="euler"``
+(default) is exactly that step for both layers (docs/semantics.md). What it changes most is the
+inhibitory membrane: an excitatory spike gives it 10.4 times its leak conductance, and the
+Euler factor ``1 - dt g / cm`` (0.886) moves it faster than the exact ``exp(-dt g / cm)``
+(0.892), so the inhibition loop closes sooner. On the oracle subset the exact step
+(``integration="exact"``, the model before) fired 1.13 / 1.10 times as often as the code per
+query / reference image; Euler steps bring that to 0.97 / 0.96
+(``benchmarks/modular_snn_vs_authors.py --integration exact|euler``).
 
 Learning rule. ``stdp="code"`` (default) is the code's triplet rule,
 ``DiehlCookSTDP(pre_term="potentiate", mu=0, x_tar=0, tau_post2=40)``: at a presynaptic
@@ -83,8 +84,9 @@ INPUT, EXC, INH = "pixels", "exc", "inh"
 INPUT_PROJECTION = f"{INPUT}->{EXC}"
 
 _STDP_FORMS = ("code", "paper")
-#: Parameters added after the first saved runs; :meth:`ModuleParameters.as_dict` leaves them out when off.
-_LATER_SWITCHES = ("euler_conductances",)
+#: Parameters added after the first saved runs, with the value they had before; :meth:`ModuleParameters.as_dict`
+#: leaves them out at that value.
+_LATER_SWITCHES = {"integration": "exact"}
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -117,7 +119,7 @@ class ModuleParameters:
     w_ei: float = 10.4
     w_ie: float = 17.0
     delay_recurrent: float = 0.0
-    euler_conductances: bool = False
+    integration: str = "euler"
     w_init_low: float = 0.003
     w_init_high: float = 0.303
     delay_min: float = 0.1
@@ -139,9 +141,11 @@ class ModuleParameters:
                 if value not in _STDP_FORMS:
                     raise nv.ValidationError(f"ModuleParameters.stdp is {value!r}, expected one of {', '.join(_STDP_FORMS)}.")
                 continue
-            if f.name == "euler_conductances":
-                if not isinstance(value, bool):
-                    raise nv.ValidationError(f"ModuleParameters.euler_conductances must be true or false, got {value!r}.")
+            if f.name == "integration":
+                if value not in nv.INTEGRATIONS:
+                    raise nv.ValidationError(
+                        f"ModuleParameters.integration is {value!r}, expected one of {', '.join(nv.INTEGRATIONS)}."
+                    )
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
                 raise nv.ValidationError(f"ModuleParameters.{f.name} must be a finite number, got {value!r}.")
@@ -178,47 +182,31 @@ class ModuleParameters:
     def as_dict(self) -> dict[str, Any]:
         """A JSON-ready copy of every parameter.
 
-        Switches added after runs were first saved (:data:`_LATER_SWITCHES`) are written only
-        when on: the settings of a run, and so the fingerprints that let it resume and be
-        evaluated, stay what they were before the switch existed (:meth:`from_dict` gives an
-        absent switch its default).
+        Parameters added after runs were first saved (:data:`_LATER_SWITCHES`) are written
+        only when they differ from the value they had before: the settings of a run, and so
+        the fingerprints that let it resume and be evaluated, stay what they were before the
+        parameter existed (:meth:`from_dict` gives an absent one that value).
         """
         out = dataclasses.asdict(self)
-        for name in _LATER_SWITCHES:
-            if not out[name]:
+        for name, before in _LATER_SWITCHES.items():
+            if out[name] == before:
                 del out[name]
         return out
 
     @classmethod
     def from_dict(cls, data: dict[str, Any]) -> ModuleParameters:
-        """Parameters from :meth:`as_dict` output; unknown keys are refused."""
+        """Parameters from :meth:`as_dict` output; unknown keys are refused.
+
+        A parameter of :data:`_LATER_SWITCHES` that is absent takes the value it had before it
+        existed (settings saved earlier describe the model they were run with).
+        """
         if not isinstance(data, dict):
             raise nv.ValidationError(f"module parameters must be a JSON object, got {type(data).__name__}.")
         known = {f.name for f in dataclasses.fields(cls)}
         unknown = sorted(set(data) - known)
         if unknown:
             raise nv.ValidationError(f"module parameters contain unknown key {unknown[0]!r}.")
-        return cls(**data)
-
-    def synaptic_time_constants(self, dt: float | None) -> tuple[float, float]:
-        """The cells' ``(tau_syn_E, tau_syn_I)`` (ms): ``tau_ge, tau_gi``, or their Euler-step equivalents at ``dt``.
-
-        With :attr:`euler_conductances`, the equivalent of ``tau`` decays by exactly ``1 - dt / tau`` per step:
-        ``-dt / ln(1 - dt / tau)``.
-        """
-        if not self.euler_conductances:
-            return self.tau_ge, self.tau_gi
-        if dt is None:
-            raise nv.ValidationError("ModuleParameters.euler_conductances needs the time step: build_module(..., dt=...).")
-        out = []
-        for name in ("tau_ge", "tau_gi"):
-            tau = getattr(self, name)
-            if not 0 < dt < tau:
-                raise nv.ValidationError(
-                    f"ModuleParameters.{name} = {tau} ms with euler_conductances needs a time step below it, got dt = {dt} ms."
-                )
-            out.append(-dt / math.log1p(-dt / tau))
-        return out[0], out[1]
+        return cls(**{**_LATER_SWITCHES, **data})
 
     def learning_rule(self, seed: int | None = None) -> nv.DiehlCookSTDP:
         """The input projection's synapse: initial weights, delays and the chosen STDP form (``mu`` is the paper's).
@@ -261,7 +249,6 @@ def build_module(
     name: str = "modular_snn_module",
     v_init_e: float | None = None,
     v_init_i: float | None = None,
-    dt: float | None = None,
 ) -> nv.Network:
     """The graph of one module.
 
@@ -278,22 +265,20 @@ def build_module(
         Initial membrane potentials (default: the resting potentials). The published
         code starts both layers 40 mV below rest; with ``reset()`` between images the
         resting potential is the right starting point (see :mod:`.training`).
-    dt
-        The time step (ms) the graph is built for; needed only with
-        ``params.euler_conductances`` (see :meth:`ModuleParameters.synaptic_time_constants`).
     """
     p = params or ModuleParameters()
-    tau_e, tau_i = p.synaptic_time_constants(dt)
+    tau_e, tau_i = p.tau_ge, p.tau_gi
     net = nv.Network(name)
     net.add_population(INPUT, p.n_input, nv.SpikeSourcePoisson(rate=0.0))
     exc = nv.IF_cond_exp_adaptive(
         cm=p.tau_e, tau_m=p.tau_e, v_rest=p.v_rest_e, v_reset=p.v_reset_e, v_thresh=p.v_thresh_e,
         tau_refrac=p.refrac_e, tau_lockout=p.lockout_e, tau_syn_E=tau_e, tau_syn_I=tau_i, e_rev_E=p.e_exc,
-        e_rev_I=p.e_inh_e, theta_plus=p.theta_plus, tau_theta=p.tau_theta, theta_init=0.0,
+        e_rev_I=p.e_inh_e, theta_plus=p.theta_plus, tau_theta=p.tau_theta, theta_init=0.0, integration=p.integration,
     )  # fmt: skip
     inh = nv.IF_cond_exp(
         cm=p.tau_i, tau_m=p.tau_i, v_rest=p.v_rest_i, v_reset=p.v_reset_i, v_thresh=p.v_thresh_i,
         tau_refrac=p.refrac_i, tau_syn_E=tau_e, tau_syn_I=tau_i, e_rev_E=p.e_exc, e_rev_I=p.e_inh_i,
+        integration=p.integration,
     )  # fmt: skip
     net.add_population(EXC, p.n_neurons, exc, v_init=v_init_e)
     net.add_population(INH, p.n_neurons, inh, v_init=v_init_i)

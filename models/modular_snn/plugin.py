@@ -86,6 +86,9 @@ class ModularTrainOptions:
         _TRAINING.assignment_presentations, "assign neurons from this many last training presentations"
     )
     dt: float = option(_TRAINING.dt, "time step in ms (as the authors' code)")
+    integration: Literal["euler", "exact"] = option(
+        _TRAINING.params.integration, "cell steps: forward Euler (as the authors' code) or exact"
+    )
     simulate_rest: bool = option(False, "simulate the 150 ms rest instead of reset()")
 
     def __post_init__(self) -> None:
@@ -172,7 +175,9 @@ class ModularSNNPlugin(ModelPlugin):
         if workers < 1:
             raise nv.ValidationError(f"--workers is {workers}, expected at least 1.")
         # input delays start at one step (the simulator's minimum delay)
-        params = ModuleParameters(stdp=o.stdp, n_neurons=int(o.neurons), delay_min=max(0.1, float(o.dt)))
+        params = ModuleParameters(
+            stdp=o.stdp, n_neurons=int(o.neurons), delay_min=max(0.1, float(o.dt)), integration=o.integration
+        )
         settings = TrainingSettings(
             params=params,
             coding=RateCoding(),

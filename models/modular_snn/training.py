@@ -87,6 +87,14 @@ class TrainingSettings:
             raise nv.ValidationError(
                 f"input delay minimum {self.params.delay_min} ms is shorter than the time step dt={self.dt} ms."
             )
+        if self.params.integration == "euler":
+            taus = {name: getattr(self.params, name) for name in ("tau_e", "tau_i", "tau_ge", "tau_gi", "tau_theta")}
+            name = min(taus, key=lambda k: taus[k])
+            if taus[name] <= self.dt:
+                raise nv.ValidationError(
+                    f"ModuleParameters.integration='euler' needs dt below every time constant of the cells, "
+                    f"got dt = {self.dt} ms with {name} = {taus[name]} ms."
+                )
         if not (isinstance(self.weight_sum, (int, float)) and 0 < self.weight_sum < self.params.n_input * self.params.w_max):
             raise nv.ValidationError(
                 f"weight_sum is {self.weight_sum!r}, expected a number in (0, n_input * w_max = "
@@ -140,8 +148,8 @@ class TrainingSettings:
         p = self.params
         if self.simulate_rest:
             v_e, v_i = p.v_rest_e + _V_START_OFFSET, p.v_rest_i + _V_START_OFFSET
-            return build_module(p, seed=seed, name=name, v_init_e=v_e, v_init_i=v_i, dt=self.dt)
-        return build_module(p, seed=seed, name=name, dt=self.dt)
+            return build_module(p, seed=seed, name=name, v_init_e=v_e, v_init_i=v_i)
+        return build_module(p, seed=seed, name=name)
 
 
 def derive_seed(seed: int, *keys: int) -> int:

@@ -5,17 +5,24 @@ advanced exactly (NEST's and sPyNNaker's exact integration); a conductance-based
 conductances decay exponentially within the step and its membrane is advanced exactly
 with their step means. :func:`propagators` gives every factor both need, one value per
 neuron, so that every backend integrating this way computes with the same numbers.
+
+A conductance-based neuron with ``integration="euler"`` takes forward-Euler steps instead
+(Brian2's ``method='euler'``): its decays are ``1 - dt / tau``, its conductances act with
+their values at the step's start (``fe = fi = 1``), ``i_offset`` moves the membrane by
+``dt / cm`` per nA, and a backend multiplies the distance to the step's equilibrium by
+``1 - dt g / cm`` instead of ``exp(-dt g / cm)`` (:func:`euler_integrated`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from neurovpr.errors import ValidationError
 from neurovpr.ir.cells import IF_cond_exp, IF_cond_exp_adaptive, IF_curr_exp, IF_curr_exp_ca2_adaptive
 
 from .params import per_neuron
 
-__all__ = ["PROPAGATORS", "propagators", "psc_propagator"]
+__all__ = ["PROPAGATORS", "euler_integrated", "euler_time_constants", "propagators", "psc_propagator"]
 
 #: The names :func:`propagators` returns.
 PROPAGATORS = (
@@ -44,6 +51,43 @@ def psc_propagator(dt: float, tau_s: np.ndarray, tau_m: np.ndarray, cm: np.ndarr
     big = ~small
     out[big] = np.exp(-dt / tau_m[big]) * np.expm1(dt * a[big]) / (a[big] * cm[big])
     return out
+
+
+def euler_integrated(cell: object) -> bool:
+    """Whether ``cell`` takes forward-Euler steps (``IF_cond_exp`` or ``IF_cond_exp_adaptive`` with ``integration="euler"``)."""
+    return isinstance(cell, (IF_cond_exp, IF_cond_exp_adaptive)) and cell.integration == "euler"
+
+
+def euler_time_constants(cell: IF_cond_exp | IF_cond_exp_adaptive, n: int, dt: float) -> dict[str, np.ndarray]:
+    """The time constants a forward-Euler step decays with, per neuron; each must exceed ``dt``.
+
+    Raises
+    ------
+    ValidationError
+        Naming the cell, the shortest offending time constant and ``dt``.
+    """
+    names = ("tau_m", "tau_syn_E", "tau_syn_I") + (("tau_theta",) if isinstance(cell, IF_cond_exp_adaptive) else ())
+    taus = {name: per_neuron(getattr(cell, name), n) for name in names}
+    for name, tau in taus.items():
+        if np.any(tau <= dt):
+            raise ValidationError(
+                f"{type(cell).__name__}(integration='euler').{name} = {float(tau.min())!r} ms needs a time step "
+                f"below it, got dt = {dt!r} ms."
+            )
+    return taus
+
+
+def _euler(cell: IF_cond_exp | IF_cond_exp_adaptive, n: int, dt: float, out: dict[str, np.ndarray]) -> None:
+    """Replace the exact factors in ``out`` by the forward-Euler ones."""
+    taus = euler_time_constants(cell, n, dt)
+    out["p22"] = 1.0 - dt / taus["tau_m"]
+    out["p20"] = dt / per_neuron(cell.cm, n)
+    out["p11e"] = 1.0 - dt / taus["tau_syn_E"]
+    out["p11i"] = 1.0 - dt / taus["tau_syn_I"]
+    out["fe"] = np.ones(n)
+    out["fi"] = np.ones(n)
+    if "tau_theta" in taus:
+        out["theta_decay"] = 1.0 - dt / taus["tau_theta"]
 
 
 def propagators(cell: object, n: int, dt: float, v_init: object = None) -> dict[str, np.ndarray]:
@@ -76,6 +120,8 @@ def propagators(cell: object, n: int, dt: float, v_init: object = None) -> dict[
         out["theta_plus"] = per_neuron(cell.theta_plus, n)
         out["theta_decay"] = np.exp(-dt / per_neuron(cell.tau_theta, n))
         out["lock"] = np.maximum(np.rint(per_neuron(cell.tau_lockout, n) / dt) - out["refrac"], 0.0)
+    if euler_integrated(cell):
+        _euler(cell, n, dt, out)  # type: ignore[arg-type]
     if isinstance(cell, IF_curr_exp_ca2_adaptive):
         tau_ca = per_neuron(cell.tau_ca2, n)
         out["p11ca"] = np.exp(-dt / tau_ca)

@@ -119,5 +119,7 @@ NOT_STANDARD_PYNN: Mapping[str, str] = MappingProxyType(
         "SoftLIF": "it is a rate approximation used only for training",
         "DiehlCookSTDP": "PyNN has no standard weight or timing dependence for Diehl & Cook's rule",
         "zero delay": "PyNN's minimum delay (min_delay) is one time step",
+        "euler integration": "PyNN's standard cells take no integration method (NEST solves iaf_cond_exp with "
+        "its own adaptive Runge-Kutta solver, pyNN.brian2 fixes its own method)",
     }
 )

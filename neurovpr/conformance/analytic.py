@@ -27,6 +27,8 @@ __all__ = [
     "decaying_sum",
     "ca2_grid_spike_times",
     "theta_grid_spike_times",
+    "euler_grid_spike_times",
+    "euler_conductance_psp",
     "pair_stdp_weight",
     "diehl_cook_pair_weight",
 ]
@@ -307,6 +309,66 @@ def theta_grid_spike_times(
         membrane, dt=dt, t_stop=t_stop, tau_refrac=tau_refrac, v_start=v_rest, v_reset=v_reset,
         state=theta_init, tau_state=tau_theta, jump=theta_plus,
     )  # fmt: skip
+
+
+def euler_grid_spike_times(
+    *,
+    dt: float,
+    t_stop: float,
+    tau_m: float,
+    cm: float,
+    v_rest: float,
+    v_reset: float,
+    v_thresh: float,
+    tau_refrac: float,
+    i_offset: float,
+    theta_plus: float = 0.0,
+    tau_theta: float = math.inf,
+    theta_init: float = 0.0,
+) -> np.ndarray:
+    """Spike times of a conductance-based cell with ``integration="euler"`` under constant current, no synaptic input.
+
+    The forward-Euler step ``v += dt / tau_m (v_rest - v) + dt / cm i_offset`` has the
+    closed form ``v_k = v_inf - (v_inf - v0) a^k`` with ``a = 1 - dt / tau_m`` and the
+    same ``v_inf = v_rest + tau_m / cm i_offset`` as the exact solution; ``theta`` falls
+    by ``b = 1 - dt / tau_theta`` per step (``b = 1`` without ``tau_theta``) and grows by
+    ``theta_plus`` at each spike. A spike is the first step end where ``v_k >= v_thresh
+    + theta_k``; then ``v`` is held at ``v_reset`` for ``round(tau_refrac / dt)`` steps.
+    """
+    v_inf = v_rest + tau_m / cm * i_offset
+    a = 1.0 - dt / tau_m
+    b = 1.0 if math.isinf(tau_theta) else 1.0 - dt / tau_theta
+    n_steps = round(t_stop / dt)
+    n_ref = round(tau_refrac / dt)
+    start, v0, theta = 0, v_rest, theta_init
+    times: list[float] = []
+    while start < n_steps:
+        k = np.arange(1, n_steps - start + 1, dtype=float)
+        hit = _first_crossing(v_inf - (v_inf - v0) * a**k, v_thresh + theta * b**k)
+        if hit is None:
+            break
+        spike = start + hit + 1
+        times.append(spike * dt)
+        theta = (theta * b ** (hit + 1) + theta_plus) * b**n_ref
+        start, v0 = spike + n_ref, v_reset
+    return np.asarray(times)
+
+
+def euler_conductance_psp(
+    n: int, *, dt: float, weight: float, tau_m: float, tau_syn: float, cm: float, v_rest: float, e_rev: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Membrane and conductance at the ``n`` step ends after a conductance jump ``weight``, forward Euler.
+
+    ``v_{k+1} = v_k + dt / cm (cm / tau_m (v_rest - v_k) + g_k (e_rev - v_k))``,
+    ``g_{k+1} = g_k (1 - dt / tau_syn)``, from ``v_0 = v_rest`` and ``g_0 = weight`` at the
+    arrival: the difference equations of the step themselves (they have no simpler form).
+    """
+    v, g = v_rest, weight
+    vs, gs = np.empty(n), np.empty(n)
+    for k in range(n):
+        v, g = v + dt / cm * (cm / tau_m * (v_rest - v) + g * (e_rev - v)), g * (1.0 - dt / tau_syn)
+        vs[k], gs[k] = v, g
+    return vs, gs
 
 
 def pair_stdp_weight(

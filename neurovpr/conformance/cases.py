@@ -36,6 +36,11 @@ CASES = MappingProxyType(
         "ca2_adaptation": "IF_curr_exp_ca2_adaptive: I_ca2 jumps by i_alpha per spike, decays with tau_ca2, ISIs grow",
         "spike_lockout": "IF_cond_exp_adaptive with tau_lockout: intervals of max(lockout, refractory + time to threshold), "
         "the membrane free (above threshold) during the lockout",
+        "euler_integration": "IF_cond_exp and IF_cond_exp_adaptive with integration='euler': spike times under "
+        "constant current from the forward-Euler closed form, and the membrane and conductance after one input "
+        "spike from the Euler difference equations (each unlike the exact ones)",
+        "euler_theta": "IF_cond_exp_adaptive with integration='euler': theta falls by 1 - dt / tau_theta per step and "
+        "grows by theta_plus per spike, with the spike times that follow",
         "theta_adaptation": "IF_cond_exp_adaptive: theta grows by theta_plus per spike, decays, survives reset()",
         "determinism": "the same seed gives identical spike trains; another seed gives other Poisson trains",
         "reset": "reset() returns time, state and spikes in flight to the start, keeps weights",

@@ -28,6 +28,7 @@ __all__ = [
     "SpikeSourcePoisson",
     "SpikeSourceArray",
     "CELL_TYPES",
+    "INTEGRATIONS",
     "NO_LEAK",
 ]
 
@@ -35,6 +36,8 @@ __all__ = [
 #: ``inf`` is refused, so a typing mistake cannot simulate as NaN; write ``tau_m=nv.NO_LEAK``.
 NO_LEAK = 1e30
 _NO_LEAK_HINT = "for a membrane without leak write tau_m=nv.NO_LEAK"
+#: How a conductance-based cell advances over one step (``integration``; docs/semantics.md, "Neurons").
+INTEGRATIONS = ("exact", "euler")
 
 _KW = {"frozen": True, "slots": True, "kw_only": True, "eq": False}
 
@@ -111,6 +114,15 @@ class IF_cond_exp(NeuronType):  # noqa: N801 - PyNN's name
     """Leaky integrate-and-fire neuron with exponentially decaying conductance synapses.
 
     ``cm dv/dt = cm (v_rest - v) / tau_m + g_E (e_rev_E - v) + g_I (e_rev_I - v) + i_offset``.
+
+    ``integration`` is how a step advances the neuron (docs/semantics.md, "Neurons"):
+    ``"exact"`` (default) decays the conductances exactly and moves the membrane exactly with
+    the step's mean conductances; ``"euler"`` is the forward-Euler step of the same equations
+    from the values at the step's start (Brian2's ``method='euler'``, with which Diehl &
+    Cook's and the Modular SNN authors' code run): ``v += dt / cm (cm / tau_m (v_rest - v)
+    + g_E (e_rev_E - v) + g_I (e_rev_I - v) + i_offset)``, ``g_X *= 1 - dt / tau_syn_X``.
+    It needs a step shorter than every time constant of the cell, and a backend that
+    declares ``Capabilities.euler_integration``.
     """
 
     conductance_based = True
@@ -118,6 +130,18 @@ class IF_cond_exp(NeuronType):  # noqa: N801 - PyNN's name
 
     e_rev_E: float = param(0.0, unit="mV", array=True)
     e_rev_I: float = param(-70.0, unit="mV", array=True)
+    integration: str = "exact"
+
+    def _validate(self) -> None:
+        NeuronType._validate(self)
+        _check_integration(self)
+
+
+def _check_integration(cell: IF_cond_exp | IF_cond_exp_adaptive) -> None:
+    if cell.integration not in INTEGRATIONS:
+        raise ValidationError(
+            f"{type(cell).__name__}.integration must be one of {', '.join(map(repr, INTEGRATIONS))}, got {cell.integration!r}."
+        )
 
 
 @dataclass(**_KW)
@@ -133,6 +157,9 @@ class IF_cond_exp_adaptive(NeuronType):  # noqa: N801 - PyNN-style name
     that, but the neuron cannot fire again until ``max(tau_refrac, tau_lockout)`` has
     passed since its spike (the Modular SNN authors' code clamps for 5 ms and locks out
     for 50 ms). The default 0 leaves ``tau_refrac`` alone in charge, as in ``IF_cond_exp``.
+
+    ``integration`` is as in ``IF_cond_exp``; with ``"euler"`` ``theta`` too decays by
+    ``1 - dt / tau_theta`` per step.
     """
 
     conductance_based = True
@@ -146,6 +173,11 @@ class IF_cond_exp_adaptive(NeuronType):  # noqa: N801 - PyNN-style name
     theta_plus: float = param(0.05, unit="mV", low=0.0, array=True)
     tau_theta: float = param(1e7, unit="ms", low=0.0, low_open=True, array=True)
     theta_init: float = param(0.0, unit="mV", array=True)
+    integration: str = "exact"
+
+    def _validate(self) -> None:
+        NeuronType._validate(self)
+        _check_integration(self)
 
 
 @dataclass(**_KW)

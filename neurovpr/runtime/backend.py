@@ -21,10 +21,15 @@ if TYPE_CHECKING:
     from neurovpr.ir.network import Network
     from neurovpr.runtime.simulation import Simulation
 
-__all__ = ["Capabilities", "Backend", "ToleranceOverride", "ZERO_DELAY", "capability_problems", "unsupported_error"]
+__all__ = [
+    "Capabilities", "Backend", "ToleranceOverride", "ZERO_DELAY", "EULER_INTEGRATION", "capability_problems",
+    "unsupported_error",
+]  # fmt: skip
 
 #: The feature name of a zero-delay synapse in refusals and in ``Capabilities.reasons``.
 ZERO_DELAY = "zero delay"
+#: The feature name of a conductance-based cell with ``integration="euler"`` in refusals and ``Capabilities.reasons``.
+EULER_INTEGRATION = "euler integration"
 
 
 def unsupported_error(backend: str, problems: list[str]) -> UnsupportedFeatureError | None:
@@ -47,6 +52,12 @@ def capability_problems(capabilities: Capabilities, network: Network) -> list[st
         kind = type(pop.cell_type).__name__
         if kind not in capabilities.cell_types:
             refuse("cell type", kind, f"population {pop.name!r}")
+        elif getattr(pop.cell_type, "integration", "exact") == "euler" and not capabilities.euler_integration:
+            reason = capabilities.reasons.get(EULER_INTEGRATION)
+            problems.append(
+                f"forward-Euler integration ({kind}(integration='euler'), population {pop.name!r})"
+                + (f": {reason}" if reason else "")
+            )
     for proj in network.projections.values():
         conn = type(proj.connector).__name__
         syn = type(proj.synapse).__name__
@@ -95,6 +106,10 @@ class Capabilities:
     zero_delays
         Whether it runs zero-delay synapses (``delay=0``; docs/semantics.md); a backend
         without them refuses such a projection, with ``reasons["zero delay"]`` when given.
+    euler_integration
+        Whether it runs conductance-based cells with ``integration="euler"`` (forward-Euler
+        steps, docs/semantics.md); a backend without refuses them, with
+        ``reasons["euler integration"]`` when given.
     arithmetic
         The chip arithmetics it computes in with ``hardware=``: values of a hwspec's
         ``[formats].arithmetic`` (``"loihi1"``, ``"loihi2"``, ``"spinnaker"``).
@@ -116,6 +131,7 @@ class Capabilities:
     run_refusal: str = ""
     heterogeneous_delays: bool = True
     zero_delays: bool = False
+    euler_integration: bool = False
     arithmetic: frozenset[str] = frozenset()
     recordables: frozenset[str] = frozenset({"v"})
     reasons: Mapping[str, str] = field(default_factory=lambda: MappingProxyType({}))
@@ -133,6 +149,7 @@ class Capabilities:
             "run_refusal": self.run_refusal or None,
             "heterogeneous_delays": self.heterogeneous_delays,
             "zero_delays": self.zero_delays,
+            "euler_integration": self.euler_integration,
             "arithmetic": sorted(self.arithmetic),
             "recordables": sorted(self.recordables),
             "reasons": dict(self.reasons),

@@ -27,8 +27,12 @@ def _assert_same_spikes(a: nv.BatchResult, b: nv.BatchResult) -> None:
 @pytest.mark.parametrize("fuse", [False, True], ids=["eager", "fused"])
 @pytest.mark.parametrize(
     ("build", "source", "n_in"),
-    [(conv_current, "image", 72), (lambda: diehl_cook_like(poisson=False), "pixels", 30)],
-    ids=["conv-current-ca2", "conductance-adaptive-lockout"],
+    [
+        (conv_current, "image", 72),
+        (lambda: diehl_cook_like(poisson=False), "pixels", 30),
+        (lambda: diehl_cook_like(poisson=False, integration="euler"), "pixels", 30),
+    ],
+    ids=["conv-current-ca2", "conductance-adaptive-lockout", "conductance-euler"],
 )
 def test_spikes_equal_the_reference_backend_on_explicit_input_spikes(build, source: str, n_in: int, fuse: bool) -> None:
     """Eager, and with the option fuse (the neurons' step compiled by torch.compile into one kernel per group)."""

@@ -11,9 +11,10 @@ from neurovpr.models.modular_snn import ModuleParameters, TrainingSettings
 
 __all__ = ["TINY", "tiny_images", "synthetic_dataset"]
 
-# A module small enough for fast tests: 8x8 images, 10 neurons, 100 ms presentations.
+# A module small enough for fast tests: 8x8 images, 10 neurons, 100 ms presentations, 0.5 ms steps
+# (exact steps: a forward-Euler step needs dt below tau_gi = 0.5 ms).
 TINY = TrainingSettings(
-    params=ModuleParameters(n_input=64, n_neurons=10, delay_min=0.5),
+    params=ModuleParameters(n_input=64, n_neurons=10, delay_min=0.5, integration="exact"),
     coding=RateCoding(presentation_ms=100.0),
     dt=0.5,
     epochs=2,

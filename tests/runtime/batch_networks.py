@@ -7,8 +7,9 @@ import numpy as np
 import neurovpr as nv
 
 
-def diehl_cook_like(*, poisson: bool = True, n_in: int = 30, n_exc: int = 12) -> nv.Network:
-    """Input (Poisson or array) -> adaptive conductance neurons with a lockout <-> inhibitory conductance neurons."""
+def diehl_cook_like(*, poisson: bool = True, n_in: int = 30, n_exc: int = 12, integration: str = "exact") -> nv.Network:
+    """Input (Poisson or array) -> adaptive conductance neurons with a lockout <-> inhibitory conductance neurons
+    (both with ``integration`` steps)."""
     net = nv.Network("batch-dc")
     source = nv.SpikeSourcePoisson(rate=0.0) if poisson else nv.SpikeSourceArray(spike_times=[[] for _ in range(n_in)])
     net.add_population("pixels", n_in, source)
@@ -17,9 +18,13 @@ def diehl_cook_like(*, poisson: bool = True, n_in: int = 30, n_exc: int = 12) ->
         "exc",
         n_exc,
         nv.IF_cond_exp_adaptive(tau_m=20.0, v_rest=-65.0, v_reset=-65.0, v_thresh=-55.0, tau_refrac=1.0,
-                                tau_lockout=4.0, tau_syn_E=1.0, tau_syn_I=2.0, e_rev_I=-100.0, theta_init=theta),
+                                tau_lockout=4.0, tau_syn_E=1.0, tau_syn_I=2.0, e_rev_I=-100.0, theta_init=theta,
+                                integration=integration),
     )  # fmt: skip
-    net.add_population("inh", n_exc, nv.IF_cond_exp(tau_m=10.0, v_rest=-60.0, v_reset=-45.0, v_thresh=-40.0, tau_syn_E=1.0))
+    net.add_population(
+        "inh", n_exc,
+        nv.IF_cond_exp(tau_m=10.0, v_rest=-60.0, v_reset=-45.0, v_thresh=-40.0, tau_syn_E=1.0, integration=integration),
+    )  # fmt: skip
     rng = np.random.default_rng(3)
     net.connect("pixels", "exc", nv.AllToAllConnector(),
                 nv.StaticSynapse(weight=rng.uniform(0.0, 0.12, n_in * n_exc), delay=nv.Uniform(0.1, high=2.0)))  # fmt: skip
