@@ -111,14 +111,15 @@ def test_two_spikes_of_one_neuron_in_a_step_are_refused() -> None:
 
 
 # -- agreement with the reference backend ----------------------------------------------------------
-def _static_network(rng: np.random.Generator) -> nv.Network:
+def _static_network(rng: np.random.Generator, integration: str = "exact") -> nv.Network:
     net = nv.Network("static")
     net.add_population("src", 30, _trains(rng, 30, 100.0))
     net.add_population("cur", 16, nv.IF_curr_exp(tau_syn_E=3.0, tau_refrac=1.0), v_init=-60.0)
     net.add_population("ca", 5, nv.IF_curr_exp_ca2_adaptive(tau_ca2=30.0, i_alpha=0.2, i_offset=0.1))
-    net.add_population("exc", 8, nv.IF_cond_exp_adaptive(theta_plus=0.5, tau_theta=200.0, tau_refrac=2.0, v_thresh=-55.0))
+    exc = nv.IF_cond_exp_adaptive(theta_plus=0.5, tau_theta=200.0, tau_refrac=2.0, v_thresh=-55.0, integration=integration)
+    net.add_population("exc", 8, exc)
     tau_m = np.linspace(8.0, 12.0, 8)
-    net.add_population("inh", 8, nv.IF_cond_exp(tau_m=tau_m, v_rest=-60.0, e_rev_I=-85.0))
+    net.add_population("inh", 8, nv.IF_cond_exp(tau_m=tau_m, v_rest=-60.0, e_rev_I=-85.0, integration=integration))
     net.add_population("conv", 2 * 3 * 4, nv.IF_curr_exp(tau_syn_E=2.0))
     net.connect("src", "cur", nv.FixedNumberPreConnector(n=nv.Normal(mu=5, sigma=1)), nv.StaticSynapse(weight=2.0))
     net.connect(
@@ -156,9 +157,11 @@ RECORDED = [
 ]
 
 
-def test_static_network_matches_reference() -> None:
-    """Every neuron model and connector, signed and inhibitory weights, run in pieces."""
-    net = _static_network(np.random.default_rng(0))
+@pytest.mark.parametrize("integration", ["exact", "euler"])
+def test_static_network_matches_reference(integration: str) -> None:
+    """Every neuron model and connector, signed and inhibitory weights, run in pieces; the conductance-based
+    populations with exact or forward-Euler steps (Brian2's ``euler``)."""
+    net = _static_network(np.random.default_rng(0), integration)
 
     def drive(sim: nv.Simulation) -> None:
         for pop, var in RECORDED:
