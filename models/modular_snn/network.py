@@ -70,6 +70,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from types import MappingProxyType
 from typing import Any
 
 import numpy as np
@@ -86,7 +87,7 @@ INPUT_PROJECTION = f"{INPUT}->{EXC}"
 _STDP_FORMS = ("code", "paper")
 #: Parameters added after the first saved runs, with the value they had before; :meth:`ModuleParameters.as_dict`
 #: leaves them out at that value.
-_LATER_SWITCHES = {"integration": "exact"}
+_LATER_SWITCHES = MappingProxyType({"integration": "exact"})
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
