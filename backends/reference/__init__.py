@@ -16,6 +16,7 @@ from __future__ import annotations
 from types import MappingProxyType
 from typing import Any
 
+from neurovpr.backendkit.propagators import euler_integrated
 from neurovpr.errors import UnsupportedFeatureError
 from neurovpr.hardware.check import HardwareTarget
 from neurovpr.ir.network import Network
@@ -46,7 +47,7 @@ class ReferenceBackend(Backend):
                 f"Backend 'reference' cannot emulate hardware {hardware.name!r} with projection {zero!r}: it has a zero "
                 "delay, where the chips' synapses take at least one time step."
             )
-        euler = next((p.name for p in network.populations.values() if getattr(p.cell_type, "integration", "") == "euler"), None)
+        euler = next((p.name for p in network.populations.values() if euler_integrated(p.cell_type)), None)
         if hardware is not None and euler is not None:
             raise UnsupportedFeatureError(
                 f"Backend 'reference' cannot emulate hardware {hardware.name!r} with population {euler!r}: its cells take "

@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from neurovpr.errors import ValidationError
-from neurovpr.ir.cells import IF_cond_exp, IF_cond_exp_adaptive, IF_curr_exp, IF_curr_exp_ca2_adaptive
+from neurovpr.ir.cells import IF_cond_exp, IF_cond_exp_adaptive, IF_curr_exp, IF_curr_exp_ca2_adaptive, euler_integrated
 
 from .params import per_neuron
 
@@ -51,11 +51,6 @@ def psc_propagator(dt: float, tau_s: np.ndarray, tau_m: np.ndarray, cm: np.ndarr
     big = ~small
     out[big] = np.exp(-dt / tau_m[big]) * np.expm1(dt * a[big]) / (a[big] * cm[big])
     return out
-
-
-def euler_integrated(cell: object) -> bool:
-    """Whether ``cell`` takes forward-Euler steps (``IF_cond_exp`` or ``IF_cond_exp_adaptive`` with ``integration="euler"``)."""
-    return isinstance(cell, (IF_cond_exp, IF_cond_exp_adaptive)) and cell.integration == "euler"
 
 
 def euler_time_constants(cell: IF_cond_exp | IF_cond_exp_adaptive, n: int, dt: float) -> dict[str, np.ndarray]:

@@ -215,7 +215,7 @@ def _spikes_with_decaying_state(
     v_start: float,
     v_reset: float,
     state: float,
-    tau_state: float,
+    decay: Callable[[int], float],
     jump: float,
 ) -> np.ndarray:
     """Spike times on the step grid of a neuron with one state variable that decays and jumps at each spike.
@@ -223,8 +223,8 @@ def _spikes_with_decaying_state(
     ``membrane(s, v0, state)`` gives, at the times ``s`` (ms) after the membrane is free
     again from ``v0`` with the state at ``state``, the membrane and the level it fires
     at; a spike is the first step end where the membrane reaches its level. The state
-    decays with ``tau_state`` throughout and grows by ``jump`` at each spike; after a
-    spike the membrane is held at ``v_reset`` for ``tau_refrac``.
+    falls by the factor ``decay(n)`` over ``n`` steps throughout and grows by ``jump`` at
+    each spike; after a spike the membrane is held at ``v_reset`` for ``tau_refrac``.
     """
     n_steps = round(t_stop / dt)
     n_ref = round(tau_refrac / dt)
@@ -237,8 +237,8 @@ def _spikes_with_decaying_state(
             break
         spike = start + k + 1
         times.append(spike * dt)
-        state = state * math.exp(-(k + 1) * dt / tau_state) + jump
-        state *= math.exp(-n_ref * dt / tau_state)
+        state = state * decay(k + 1) + jump
+        state *= decay(n_ref)
         start, v0 = spike + n_ref, v_reset
     return np.asarray(times)
 
@@ -275,7 +275,7 @@ def ca2_grid_spike_times(
 
     return _spikes_with_decaying_state(
         membrane, dt=dt, t_stop=t_stop, tau_refrac=tau_refrac, v_start=v_rest, v_reset=v_reset,
-        state=i_ca2, tau_state=tau_ca2, jump=i_alpha,
+        state=i_ca2, decay=lambda n: math.exp(-n * dt / tau_ca2), jump=i_alpha,
     )  # fmt: skip
 
 
@@ -307,7 +307,7 @@ def theta_grid_spike_times(
 
     return _spikes_with_decaying_state(
         membrane, dt=dt, t_stop=t_stop, tau_refrac=tau_refrac, v_start=v_rest, v_reset=v_reset,
-        state=theta_init, tau_state=tau_theta, jump=theta_plus,
+        state=theta_init, decay=lambda n: math.exp(-n * dt / tau_theta), jump=theta_plus,
     )  # fmt: skip
 
 
@@ -338,20 +338,15 @@ def euler_grid_spike_times(
     v_inf = v_rest + tau_m / cm * i_offset
     a = 1.0 - dt / tau_m
     b = 1.0 if math.isinf(tau_theta) else 1.0 - dt / tau_theta
-    n_steps = round(t_stop / dt)
-    n_ref = round(tau_refrac / dt)
-    start, v0, theta = 0, v_rest, theta_init
-    times: list[float] = []
-    while start < n_steps:
-        k = np.arange(1, n_steps - start + 1, dtype=float)
-        hit = _first_crossing(v_inf - (v_inf - v0) * a**k, v_thresh + theta * b**k)
-        if hit is None:
-            break
-        spike = start + hit + 1
-        times.append(spike * dt)
-        theta = (theta * b ** (hit + 1) + theta_plus) * b**n_ref
-        start, v0 = spike + n_ref, v_reset
-    return np.asarray(times)
+
+    def membrane(s: np.ndarray, v0: float, theta: float) -> tuple[np.ndarray, np.ndarray]:
+        k = np.rint(s / dt)  # steps since the membrane was free
+        return v_inf - (v_inf - v0) * a**k, v_thresh + theta * b**k
+
+    return _spikes_with_decaying_state(
+        membrane, dt=dt, t_stop=t_stop, tau_refrac=tau_refrac, v_start=v_rest, v_reset=v_reset,
+        state=theta_init, decay=lambda n: b**n, jump=theta_plus,
+    )  # fmt: skip
 
 
 def euler_conductance_psp(

@@ -30,6 +30,7 @@ __all__ = [
     "CELL_TYPES",
     "INTEGRATIONS",
     "NO_LEAK",
+    "euler_integrated",
 ]
 
 #: ``tau_m`` of a membrane without leak (ms): ``exp(-dt / NO_LEAK)`` is exactly 1 for any step.
@@ -135,6 +136,11 @@ class IF_cond_exp(NeuronType):  # noqa: N801 - PyNN's name
     def _validate(self) -> None:
         NeuronType._validate(self)
         _check_integration(self)
+
+
+def euler_integrated(cell: object) -> bool:
+    """Whether ``cell`` takes forward-Euler steps (``IF_cond_exp`` or ``IF_cond_exp_adaptive`` with ``integration="euler"``)."""
+    return isinstance(cell, (IF_cond_exp, IF_cond_exp_adaptive)) and cell.integration == "euler"
 
 
 def _check_integration(cell: IF_cond_exp | IF_cond_exp_adaptive) -> None:

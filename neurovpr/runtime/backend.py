@@ -15,6 +15,7 @@ from types import MappingProxyType
 from typing import TYPE_CHECKING, Any, Mapping
 
 from neurovpr.errors import BackendUnavailableError, UnsupportedFeatureError, ValidationError
+from neurovpr.ir.cells import euler_integrated
 
 if TYPE_CHECKING:
     from neurovpr.hardware.check import HardwareTarget
@@ -52,7 +53,7 @@ def capability_problems(capabilities: Capabilities, network: Network) -> list[st
         kind = type(pop.cell_type).__name__
         if kind not in capabilities.cell_types:
             refuse("cell type", kind, f"population {pop.name!r}")
-        elif getattr(pop.cell_type, "integration", "exact") == "euler" and not capabilities.euler_integration:
+        elif euler_integrated(pop.cell_type) and not capabilities.euler_integration:
             reason = capabilities.reasons.get(EULER_INTEGRATION)
             problems.append(
                 f"forward-Euler integration ({kind}(integration='euler'), population {pop.name!r})"
