@@ -50,7 +50,7 @@ from typing import Any
 import numpy as np
 
 from neurovpr.backendkit.params import per_neuron
-from neurovpr.backendkit.propagators import euler_integrated, euler_time_constants
+from neurovpr.backendkit.propagators import euler_time_constants
 from neurovpr.errors import UnsupportedFeatureError
 from neurovpr.ir.cells import (
     IF_cond_exp,
@@ -58,6 +58,7 @@ from neurovpr.ir.cells import (
     IF_curr_exp,
     IF_curr_exp_ca2_adaptive,
     NeuronType,
+    euler_integrated,
 )
 from neurovpr.ir.synapses import (
     DiehlCookSTDP,

@@ -16,9 +16,9 @@ from __future__ import annotations
 from types import MappingProxyType
 from typing import Any
 
-from neurovpr.backendkit.propagators import euler_integrated
 from neurovpr.errors import UnsupportedFeatureError
 from neurovpr.hardware.check import HardwareTarget
+from neurovpr.ir.cells import euler_integrated
 from neurovpr.ir.network import Network
 from neurovpr.runtime.backend import Backend
 from neurovpr.runtime.simulation import Simulation

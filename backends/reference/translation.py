@@ -18,7 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from neurovpr.backendkit.propagators import euler_integrated, propagators
+from neurovpr.backendkit.propagators import propagators
 from neurovpr.backendkit.timing import delay_steps
 from neurovpr.ir.cells import (
     IF_cond_exp,
@@ -26,6 +26,7 @@ from neurovpr.ir.cells import (
     IF_curr_exp_ca2_adaptive,
     SpikeSourceArray,
     SpikeSourcePoisson,
+    euler_integrated,
 )
 from neurovpr.ir.connectivity import expand
 from neurovpr.ir.connectors import ConvolutionConnector

@@ -24,9 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from neurovpr.backendkit.propagators import euler_integrated, propagators
+from neurovpr.backendkit.propagators import propagators
 from neurovpr.backendkit.timing import delay_steps
-from neurovpr.ir.cells import IF_cond_exp, IF_cond_exp_adaptive, IF_curr_exp_ca2_adaptive
+from neurovpr.ir.cells import IF_cond_exp, IF_cond_exp_adaptive, IF_curr_exp_ca2_adaptive, euler_integrated
 from neurovpr.ir.connectivity import Connections
 from neurovpr.ir.network import Network
 

@@ -10,7 +10,7 @@ A conductance-based neuron with ``integration="euler"`` takes forward-Euler step
 (Brian2's ``method='euler'``): its decays are ``1 - dt / tau``, its conductances act with
 their values at the step's start (``fe = fi = 1``), ``i_offset`` moves the membrane by
 ``dt / cm`` per nA, and a backend multiplies the distance to the step's equilibrium by
-``1 - dt g / cm`` instead of ``exp(-dt g / cm)`` (:func:`euler_integrated`).
+``1 - dt g / cm`` instead of ``exp(-dt g / cm)`` (:func:`neurovpr.ir.cells.euler_integrated`).
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ from neurovpr.ir.cells import IF_cond_exp, IF_cond_exp_adaptive, IF_curr_exp, IF
 
 from .params import per_neuron
 
-__all__ = ["PROPAGATORS", "euler_integrated", "euler_time_constants", "propagators", "psc_propagator"]
+__all__ = ["PROPAGATORS", "euler_time_constants", "propagators", "psc_propagator"]
 
 #: The names :func:`propagators` returns.
 PROPAGATORS = (
