@@ -10,8 +10,12 @@ query i matches reference i, zero tolerance. As the authors' code does, ``--cali
 of the places (default: about 20 % in whole modules, 100 of 500) calibrate each member's
 hyperactive threshold and are left out of the table: Recall@N is measured on the other
 (reported) places and their queries only. Also reports how concentrated the ensemble's best
-matches are (:func:`neurovpr.evaluation.match_concentration`), the wall-clock and CPU time of
-training one module and what the full 2,400-place, 30-epoch run would cost at that rate.
+matches are (:func:`neurovpr.evaluation.match_concentration`), for every member the neurons
+behind its most-chosen places at L = 1 (:mod:`neurovpr.models.modular_snn.anatomy`: the share of
+their neurons kept as not hyperactive and the kept neurons' activity, against all places, and the
+rank correlation of each place's wins with both; stored with the member's matrix, absent for
+matrices saved before), the wall-clock and CPU time of training one module and what the full
+2,400-place, 30-epoch run would cost at that rate.
 
 Which places (``--subset``): ``vprsnn`` (default) keeps the frames that the Modular SNN
 paper's code uses for Nordland (its image list in ``../shared/datasets/vprsnn_lists``,
@@ -53,8 +57,16 @@ from pathlib import Path
 import numpy as np
 
 from neurovpr.data.traverse import Traverse
+from neurovpr.evaluation.metrics import distance_from_similarity
 from neurovpr.fileio import atomic_write_bytes, atomic_write_text
-from neurovpr.models.modular_snn import ModuleParameters, TrainingSettings, member_similarities, query_responses, train_run
+from neurovpr.models.modular_snn import (
+    ModuleParameters,
+    TrainingSettings,
+    hub_anatomy,
+    member_similarities,
+    query_responses,
+    train_run,
+)
 from neurovpr.models.modular_snn.parallel import default_workers
 from neurovpr.models.modular_snn.plan import default_calibration_places, describe_plan
 from neurovpr.models.modular_snn.plugin import load_traverse
@@ -131,6 +143,7 @@ def _save_member(folder: Path, member: int, sim: np.ndarray, key: str, info: dic
     np.savez_compressed(
         buf, similarity=sim.astype(np.float32), key=np.str_(key), timing=timing, machine=np.str_(machine),
         places=extra["places"], queries=extra["queries"], threshold=np.float64(extra["threshold"]),
+        **{f"anatomy_{name}": values for name, values in extra["anatomy"].items()},
     )  # fmt: skip
     atomic_write_bytes(folder / f"m{member:02d}.npz", buf.getvalue())
 
@@ -144,6 +157,9 @@ def _load_member(folder: Path, member: int, key: str) -> tuple[np.ndarray, dict]
             raise SystemExit(f"{path} was computed from other data, settings or seed than this run")
         meta = dict(zip(_TIMING_KEYS, f["timing"].tolist(), strict=True), machine=str(f["machine"]))
         meta.update(places=f["places"].astype(np.int64), queries=f["queries"].astype(np.int64), threshold=float(f["threshold"]))
+        # matrices saved before the anatomy was stored have none
+        names = [k for k in f.files if k.startswith("anatomy_")]
+        meta["anatomy"] = {k.removeprefix("anatomy_"): f[k] for k in names} if names else None
         return f["similarity"].astype(np.float64), meta
 
 
@@ -179,7 +195,7 @@ def main() -> int:
         chosen = only if only is not None else list(range(args.members))
         ms = member_similarities(run_dir, info, counts, traverse.ground_truth, members=chosen)
         for k, m in enumerate(chosen):
-            extra = {"places": ms.places, "queries": ms.queries, "threshold": ms.thresholds[k]}
+            extra = {"places": ms.places, "queries": ms.queries, "threshold": ms.thresholds[k], "anatomy": ms.anatomy[k]}
             _save_member(sim_dir, m, ms.similarities[k], key, info, extra)
         if only is not None:
             print(f"members {chosen} saved in {sim_dir} ({time.perf_counter() - start:.0f} s wall on {workers} workers)")
@@ -194,7 +210,13 @@ def main() -> int:
         k: evaluate_similarities(sims[:k], reference[places], query[queries], gt, seq_lens=seq_lens) for k in ensembles
     }
     total_wall = time.perf_counter() - start
-    timing = [{k: v for k, v in meta.items() if k not in ("places", "queries")} for _, meta in loaded]
+    timing = [{k: v for k, v in meta.items() if k not in ("places", "queries", "anatomy")} for _, meta in loaded]
+    # each member's own best matches at L = 1 against the neurons behind its places (saved with its matrix)
+    hubs = {
+        str(m): hub_anatomy(distance_from_similarity(sim), meta["anatomy"])
+        for m, (sim, meta) in enumerate(loaded)
+        if meta["anatomy"] is not None
+    }
     thetas = [meta["threshold"] for _, meta in loaded]
 
     table: dict[str, dict[str, dict[str, float]]] = {}
@@ -225,6 +247,7 @@ def main() -> int:
         "reported": {"places": int(places.size), "queries": int(queries.size)},
         "hyperactive_thetas": thetas,
         "concentration": concentration,
+        "hub_anatomy": hubs,
         "workers": workers,
         "table": table,
         "per_member": {s: results[ensembles[-1]]["by_seq_len"][s]["members"] for s in map(str, seq_lens)},
@@ -277,7 +300,20 @@ def _print(out: dict, seq_lens: list[int]) -> None:
             f"L={n}: best matches on {c['distinct_best_matches']} distinct places (ensemble), the most-chosen "
             f"{c['top_places']} places win {c['top_share']:.3f} of the queries (SAD {sad:.3f})"
         )
+    for m, h in out["hub_anatomy"].items():
+        top, every, rho = h["top"], h["all"], h["spearman_wins_vs"]
+        print(
+            f"member {m}, L=1: its most-chosen {h['top_places']} places (win {h['top_share']:.3f}) keep "
+            f"{_fmt(top['kept_share'])} of their neurons (all places {_fmt(every['kept_share'])}), whose mean "
+            f"activity is {_fmt(top['kept_activity'], '.1f')} reference images (all {_fmt(every['kept_activity'], '.1f')}); "
+            f"rank correlation of wins with kept share {_fmt(rho['kept_share'])}, with kept activity "
+            f"{_fmt(rho['kept_activity'])}, with mean similarity {_fmt(rho['mean_similarity'])}"
+        )
     print(f"machines: {sorted({t['machine'] for t in out['per_member_timing']})}; results in results.json")
+
+
+def _fmt(x: float | None, spec: str = ".2f") -> str:
+    return "n/a" if x is None else format(x, spec)
 
 
 if __name__ == "__main__":

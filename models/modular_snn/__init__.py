@@ -3,6 +3,7 @@
 - :mod:`.network` -- the graph of one module
 - :mod:`.training` -- training one module, presenting images
 - :mod:`.inference` -- assignment, hyperactive neurons, fusion, ensembles
+- :mod:`.anatomy` -- the neurons behind each place's score, and behind the most-chosen places
 - :mod:`.deployment` -- the current-based approximation for backends without conductance synapses
 - :mod:`.parallel` -- process pool / Dask execution of module jobs
 - :mod:`.plan` -- the plan: places split into modules, calibration places and queries
@@ -59,6 +60,7 @@ the released members' per-member epochs (60-70, chosen by calibration; ``--epoch
 one value for all).
 """
 
+from .anatomy import hub_anatomy, place_anatomy
 from .inference import (
     THRESHOLDS,
     assign_neurons,
@@ -88,10 +90,12 @@ __all__ = [
     "derive_seed",
     "ensemble_similarity",
     "fuse_modules",
+    "hub_anatomy",
     "hyperactive_neurons",
     "make_plan",
     "member_similarities",
     "module_similarity",
+    "place_anatomy",
     "query_responses",
     "reference_activity",
     "train_module",

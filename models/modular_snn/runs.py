@@ -42,6 +42,7 @@ from neurovpr.apps.rundir import RunDir, damaged_part
 from neurovpr.data.ground_truth import GroundTruth
 from neurovpr.fileio import atomic_write_bytes
 
+from .anatomy import place_anatomy
 from .inference import (
     SCORES,
     THRESHOLDS,
@@ -382,6 +383,8 @@ class MemberSimilarities:
         Each member's hyperactive threshold (calibrated, fixed, or 0).
     calibration
         Each member's calibration Recall@1 per candidate threshold (empty when none was calibrated).
+    anatomy
+        Each member's :func:`.anatomy.place_anatomy` of the reported places (rows as in ``similarities``).
     """
 
     similarities: list[np.ndarray]
@@ -389,6 +392,7 @@ class MemberSimilarities:
     queries: np.ndarray
     thresholds: list[float]
     calibration: list[dict[float, float]]
+    anatomy: list[dict[str, np.ndarray]]
 
 
 def member_similarities(
@@ -419,7 +423,7 @@ def member_similarities(
     if cal_places.size and cal_queries.size == 0:
         raise nv.ValidationError("no query matches only calibration places, so the hyperactive threshold cannot be calibrated.")
     chosen = sorted({int(mod["member"]) for mod in _modules(run_info)}) if members is None else list(members)
-    out = MemberSimilarities([], places, queries, [], [])
+    out = MemberSimilarities([], places, queries, [], [], [])
     for m in chosen:
         parts: dict[bool, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {True: [], False: []}
         for mod in _modules(run_info):
@@ -447,6 +451,8 @@ def member_similarities(
         out.similarities.append(fused[places])
         out.thresholds.append(theta)
         out.calibration.append(recall)
+        anatomy = place_anatomy([(a, act) for _, a, act in parts[False]], theta, n_ref)
+        out.anatomy.append({name: values[places] for name, values in anatomy.items()})
     return out
 
 

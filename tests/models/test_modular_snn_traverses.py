@@ -126,6 +126,13 @@ def test_run_with_an_extra_traverse_records_it_and_resume_checks_it(tmp_path: Pa
     np.testing.assert_array_equal(ms.similarities[0], expected)
     np.testing.assert_array_equal(ms.places, np.arange(4))
     assert ms.thresholds == [3.0] and ms.calibration == [{}]
+    # the neurons behind each reported place, from the same assignments and threshold
+    anatomy = ms.anatomy[0]
+    assignments = np.concatenate([assign_neurons(r["own_responses"], r["places"]) for r in records])
+    fired = np.concatenate([r["images_fired"] for r in records])
+    np.testing.assert_array_equal(anatomy["assigned"], np.bincount(assignments[assignments >= 0], minlength=4))
+    keep = (assignments >= 0) & (fired < 3)
+    np.testing.assert_array_equal(anatomy["kept"], np.bincount(assignments[keep], minlength=4))
 
 
 def _conditions_dataset(folder: Path, n: int, season: float, name: str) -> Path:
