@@ -34,7 +34,7 @@ members (copied into one ``--out``), refusing any whose data, settings or seed d
 Usage (from the repository root)::
 
     python benchmarks/modular_snn_nordland.py                   # defaults below
-    python benchmarks/modular_snn_nordland.py --places 200 --epochs 30 --resume
+    python benchmarks/modular_snn_nordland.py --places 200 --epochs 20 --resume
     python benchmarks/modular_snn_nordland.py --members 5 --only-members 3,4   # on another machine
     python benchmarks/modular_snn_nordland.py --members 5 --combine            # after copying similarity/
 
@@ -103,7 +103,8 @@ def _args() -> argparse.Namespace:
     p.add_argument("--data", type=Path, default=None, help="dataset (default ../shared/datasets/nordland64)")
     p.add_argument("--places", type=int, default=100, help="number of places (default 100)")
     p.add_argument("--subset", choices=("vprsnn", "first"), default="vprsnn", help="which places (default vprsnn)")
-    p.add_argument("--epochs", type=int, default=20, help="epochs per module (default 20; the paper uses 30)")
+    p.add_argument("--epochs", type=int, default=TrainingSettings().epochs,
+                   help="epochs per module (default: the model's, 30: the paper's and the authors' Nordland one)")  # fmt: skip
     p.add_argument("--members", type=int, default=5, help="ensemble members (default 5)")
     p.add_argument("--calibration-places", type=int, default=None, help="places that calibrate the hyperactive threshold "
                    "and are not reported (default: about 20%% of --places in whole modules)")  # fmt: skip

@@ -56,8 +56,9 @@ that gives the paper's text where a user may want it:
 
 Not reproduced: the code's evaluation gives a row only to the labels some neuron holds
 (-1, unassigned, included), here every place has a row and one without neurons scores 0;
-the released members' per-member epochs (60-70, chosen by calibration; ``--epochs`` is
-one value for all).
+the released Nordland members' per-member epochs (60-70, chosen on calibration places for
+members trained on two reference traverses; the published code trains one epoch count, 30
+in its Nordland configuration, which is the default here, ``--epochs``).
 """
 
 from .anatomy import hub_anatomy, place_anatomy
