@@ -17,14 +17,13 @@ concentrate on it (:mod:`neurovpr.evaluation.concentration`).
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 
 import numpy as np
 from scipy.stats import spearmanr
 
 import neurovpr as nv
-from neurovpr.evaluation.metrics import best_matches
+from neurovpr.evaluation.concentration import most_chosen
 
 from .inference import hyperactive_neurons
 
@@ -88,9 +87,8 @@ def hub_anatomy(distances: np.ndarray, anatomy: dict[str, np.ndarray], *, top_fr
     anatomy
         :func:`place_anatomy` of those places (each array indexed like the rows).
     top_fraction
-        Which places count as the most chosen: the ``max(1, ceil(top_fraction * R))``
-        places that are most often a query's best match (as
-        :func:`neurovpr.evaluation.concentration.match_concentration`).
+        Which places count as the most chosen
+        (:func:`neurovpr.evaluation.concentration.most_chosen`, as ``match_concentration``).
 
     Returns
     -------
@@ -106,12 +104,8 @@ def hub_anatomy(distances: np.ndarray, anatomy: dict[str, np.ndarray], *, top_fr
     for name in ("assigned", "kept", "kept_activity"):
         if np.shape(anatomy[name]) != (n_ref,):
             raise nv.ValidationError(f"hub anatomy: {name} has shape {np.shape(anatomy[name])}, expected ({n_ref},).")
-    if not (isinstance(top_fraction, (int, float)) and 0 < top_fraction <= 1):
-        raise nv.ValidationError(f"hub anatomy: top_fraction is {top_fraction!r}, expected a number in (0, 1].")
-    idx, _ = best_matches(d)
-    wins = np.bincount(idx, minlength=n_ref).astype(np.float64)
-    n_top = max(1, math.ceil(top_fraction * n_ref - 1e-9))
-    top = np.argsort(-wins, kind="stable")[:n_top]
+    chosen, top = most_chosen(d, top_fraction=top_fraction)
+    wins = chosen.astype(np.float64)
     assigned = np.asarray(anatomy["assigned"], dtype=np.float64)
     with np.errstate(invalid="ignore", divide="ignore"):
         share = np.where(assigned > 0, np.asarray(anatomy["kept"], dtype=np.float64) / assigned, np.nan)
@@ -125,7 +119,7 @@ def hub_anatomy(distances: np.ndarray, anatomy: dict[str, np.ndarray], *, top_fr
         return {"assigned": _mean(assigned[rows]), "kept_share": _mean(share[rows]), "kept_activity": _mean(activity[rows])}
 
     return {
-        "top_places": int(n_top),
+        "top_places": int(top.size),
         "top_share": float(wins[top].sum() / d.shape[1]),
         "top": _means(top),
         "all": _means(np.arange(n_ref)),

@@ -22,6 +22,7 @@ _EXPORTS = {
     "roc": "neurovpr.evaluation.metrics",
     "correct_match_sparsity": "neurovpr.evaluation.metrics",
     "match_concentration": "neurovpr.evaluation.concentration",
+    "most_chosen": "neurovpr.evaluation.concentration",
     "identity_kernel": "neurovpr.evaluation.sequence",
     "seqslam": "neurovpr.evaluation.sequence",
 }
