@@ -31,6 +31,14 @@ the member index alone, and each member's similarity matrix is saved as
 and saves their matrices; ``--combine`` then evaluates the ensembles from the saved matrices of all
 members (copied into one ``--out``), refusing any whose data, settings or seed differ.
 
+Epochs. ``--epochs`` is one count (default: the model's 30, the authors' Nordland
+configuration) or several, e.g. ``--epochs 20,30,60``: then every member is trained once
+per count (``epochs<E>/`` in ``--out``, each with its own ``run/`` and ``similarity/``) and
+takes the count and hyperactive threshold with the best Recall@1 on the calibration places
+(:func:`neurovpr.models.modular_snn.calibrate_epochs`), as the authors' README describes
+the calibration of both (their released Nordland members: 60 and 70 epochs); the reported
+places never choose.
+
 Usage (from the repository root)::
 
     python benchmarks/modular_snn_nordland.py                   # defaults below
@@ -62,6 +70,7 @@ from neurovpr.fileio import atomic_write_bytes, atomic_write_text
 from neurovpr.models.modular_snn import (
     ModuleParameters,
     TrainingSettings,
+    calibrate_epochs,
     hub_anatomy,
     member_similarities,
     query_responses,
@@ -103,8 +112,9 @@ def _args() -> argparse.Namespace:
     p.add_argument("--data", type=Path, default=None, help="dataset (default ../shared/datasets/nordland64)")
     p.add_argument("--places", type=int, default=100, help="number of places (default 100)")
     p.add_argument("--subset", choices=("vprsnn", "first"), default="vprsnn", help="which places (default vprsnn)")
-    p.add_argument("--epochs", type=int, default=TrainingSettings().epochs,
-                   help="epochs per module (default: the model's, 30: the paper's and the authors' Nordland one)")  # fmt: skip
+    p.add_argument("--epochs", type=_counts, default=[TrainingSettings().epochs],
+                   help="epochs per module, or several counts to calibrate per member, e.g. 20,30,60 (default: the "
+                   "model's, 30: the paper's and the authors' Nordland one)")  # fmt: skip
     p.add_argument("--members", type=int, default=5, help="ensemble members (default 5)")
     p.add_argument("--calibration-places", type=int, default=None, help="places that calibrate the hyperactive threshold "
                    "and are not reported (default: about 20%% of --places in whole modules)")  # fmt: skip
@@ -118,6 +128,17 @@ def _args() -> argparse.Namespace:
     p.add_argument("--integration", choices=("euler", "exact"), default="euler",
                    help="cell steps (ModuleParameters.integration; default euler, as the authors' code)")  # fmt: skip
     return p.parse_args()
+
+
+def _counts(text: str) -> list[int]:
+    """``--epochs``: one whole number >= 1 or several, comma-separated."""
+    try:
+        counts = sorted({int(x) for x in text.split(",")})
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"epochs {text!r} is not a comma-separated list of whole numbers") from None
+    if not counts or counts[0] < 1:
+        raise argparse.ArgumentTypeError(f"epochs {text!r} must be whole numbers >= 1")
+    return counts
 
 
 _TIMING_KEYS = ("train_seconds_per_module", "train_cpu_seconds_per_module", "record_cpu_seconds_per_module")
@@ -144,6 +165,8 @@ def _save_member(folder: Path, member: int, sim: np.ndarray, key: str, info: dic
     np.savez_compressed(
         buf, similarity=sim.astype(np.float32), key=np.str_(key), timing=timing, machine=np.str_(machine),
         places=extra["places"], queries=extra["queries"], threshold=np.float64(extra["threshold"]),
+        calibration_thresholds=np.array(sorted(extra["calibration"]), dtype=np.float64),
+        calibration_recall=np.array([extra["calibration"][t] for t in sorted(extra["calibration"])], dtype=np.float64),
         **{f"anatomy_{name}": values for name, values in extra["anatomy"].items()},
     )  # fmt: skip
     atomic_write_bytes(folder / f"m{member:02d}.npz", buf.getvalue())
@@ -161,6 +184,11 @@ def _load_member(folder: Path, member: int, key: str) -> tuple[np.ndarray, dict]
         # matrices saved before the anatomy was stored have none
         names = [k for k in f.files if k.startswith("anatomy_")]
         meta["anatomy"] = {k.removeprefix("anatomy_"): f[k] for k in names} if names else None
+        # and before the calibration Recall@1 per threshold was stored
+        if "calibration_recall" in f.files:
+            meta["calibration"] = dict(zip(f["calibration_thresholds"].tolist(), f["calibration_recall"].tolist(), strict=True))
+        else:
+            meta["calibration"] = None
         return f["similarity"].astype(np.float64), meta
 
 
@@ -178,31 +206,42 @@ def main() -> int:
     traverse = select_places(load_traverse(data), args.subset, args.places)
     reference = traverse.reference.preprocessed()
     query = traverse.query.preprocessed()
-    settings = TrainingSettings(params=ModuleParameters(integration=args.integration), epochs=args.epochs, module_size=MODULE)
     if args.calibration_places is None:
         args.calibration_places = default_calibration_places(args.places, MODULE)
-    run_dir, sim_dir = args.out / "run", args.out / "similarity"
-    key = _member_key(args, settings, reference, query)
+    several = len(args.epochs) > 1
     only = None if args.only_members is None else sorted({int(x) for x in args.only_members.split(",")})
     start = time.perf_counter()
-    summary: dict = {}
-    if not args.combine:
+    keys: dict[int, str] = {}
+    trained_now = 0
+    for epochs in args.epochs:
+        settings = TrainingSettings(params=ModuleParameters(integration=args.integration), epochs=epochs, module_size=MODULE)
+        folder = args.out / f"epochs{epochs}" if several else args.out
+        run_dir, sim_dir = folder / "run", folder / "similarity"
+        keys[epochs] = key = _member_key(args, settings, reference, query)
+        if args.combine:
+            continue
         summary = train_run(
             run_dir, reference, settings, members=args.members, seed=args.seed, workers=workers, resume=args.resume,
             only_members=only, n_calibration=args.calibration_places,
         )  # fmt: skip
         info = summary["run_info"]
+        trained_now += summary["trained_now"]
         counts = query_responses(run_dir, info, query, workers=workers)
         chosen = only if only is not None else list(range(args.members))
         ms = member_similarities(run_dir, info, counts, traverse.ground_truth, members=chosen)
         for k, m in enumerate(chosen):
-            extra = {"places": ms.places, "queries": ms.queries, "threshold": ms.thresholds[k], "anatomy": ms.anatomy[k]}
+            extra = {
+                "places": ms.places, "queries": ms.queries, "threshold": ms.thresholds[k], "anatomy": ms.anatomy[k],
+                "calibration": ms.calibration[k],
+            }  # fmt: skip
             _save_member(sim_dir, m, ms.similarities[k], key, info, extra)
         if only is not None:
-            print(f"members {chosen} saved in {sim_dir} ({time.perf_counter() - start:.0f} s wall on {workers} workers)")
-            return 0
+            wall = time.perf_counter() - start
+            print(f"members {chosen} ({epochs} epochs) saved in {sim_dir} ({wall:.0f} s wall on {workers} workers)")
+    if only is not None and not args.combine:
+        return 0
     train_wall = time.perf_counter() - start
-    loaded = [_load_member(sim_dir, m, key) for m in range(args.members)]
+    loaded = [_choose_epochs(args, keys, m) for m in range(args.members)]
     sims = [sim for sim, _ in loaded]
     places, queries = loaded[0][1]["places"], loaded[0][1]["queries"]
     gt = traverse.ground_truth.subset(places, queries)
@@ -211,7 +250,7 @@ def main() -> int:
         k: evaluate_similarities(sims[:k], reference[places], query[queries], gt, seq_lens=seq_lens) for k in ensembles
     }
     total_wall = time.perf_counter() - start
-    timing = [{k: v for k, v in meta.items() if k not in ("places", "queries", "anatomy")} for _, meta in loaded]
+    timing = [{k: v for k, v in meta.items() if k in (*_TIMING_KEYS, "machine", "epochs")} for _, meta in loaded]
     # each member's own best matches at L = 1 against the neurons behind its places (saved with its matrix)
     hubs = {
         str(m): hub_anatomy(distance_from_similarity(sim), meta["anatomy"])
@@ -236,17 +275,20 @@ def main() -> int:
     here = [t for t in timing if t["machine"] == _machine()] or timing
     n_train = float(np.mean([t["train_seconds_per_module"] for t in here]))
     n_cpu = float(np.mean([t["train_cpu_seconds_per_module"] for t in here]))
-    per_image = n_cpu / (args.epochs * MODULE)
+    per_image = float(np.mean([t["train_cpu_seconds_per_module"] / (t["epochs"] * MODULE) for t in here]))
     rec_per_image = float(np.mean([t["record_cpu_seconds_per_module"] for t in here])) / args.places
     # a module of the full run: its training, then every reference image and every query image
     full_module_cpu = FULL_EPOCHS * MODULE * per_image + 2 * FULL_PLACES * rec_per_image
     out = {
         "data": str(data),
-        "subset": f"{_SUBSETS[args.subset].format(n=args.places)} (reference = summer, query = winter), {args.epochs} epochs, "
+        "subset": f"{_SUBSETS[args.subset].format(n=args.places)} (reference = summer, query = winter), "
+        f"{'/'.join(map(str, args.epochs))} epochs{' (calibrated per member)' if len(args.epochs) > 1 else ''}, "
         f"{MODULE} places per module, {args.members} members, seed {args.seed}",
         "plan": describe_plan(args.places, MODULE, args.calibration_places),
         "reported": {"places": int(places.size), "queries": int(queries.size)},
         "hyperactive_thetas": thetas,
+        "epochs": [meta["epochs"] for _, meta in loaded],
+        "calibration_recall_at_1": [meta["calibration_by_epochs"] for _, meta in loaded],
         "concentration": concentration,
         "hub_anatomy": hubs,
         "workers": workers,
@@ -265,7 +307,7 @@ def main() -> int:
             "full_run_estimate_cpu_hours_per_member": round(full_module_cpu * FULL_PLACES / MODULE / 3600, 1),
             "train_wall_seconds": None if args.combine else round(train_wall, 1),
             "total_wall_seconds": round(total_wall, 1),
-            "trained_now": summary.get("trained_now"),
+            "trained_now": None if args.combine else trained_now,
         },
     }
     args.out.mkdir(parents=True, exist_ok=True)
@@ -295,6 +337,10 @@ def _print(out: dict, seq_lens: list[int]) -> None:
         f"per member; this run: {t['total_wall_seconds']} s wall on {out['workers']} workers"
     )
     print(f"hyperactive thresholds per member (reference images fired for): {out['hyperactive_thetas']}")
+    for m, (epochs, by_epochs) in enumerate(zip(out["epochs"], out["calibration_recall_at_1"], strict=True)):
+        if by_epochs:
+            best = ", ".join(f"{e} epochs {max(r.values()):.3f}" if r else f"{e} epochs n/a" for e, r in by_epochs.items())
+            print(f"member {m}: {epochs} epochs; best calibration R@1 by epochs: {best}")
     for n in seq_lens:
         c, sad = out["concentration"][str(n)]["ensemble"], out["concentration"][str(n)]["SAD"]["top_share"]
         print(
@@ -311,6 +357,25 @@ def _print(out: dict, seq_lens: list[int]) -> None:
             f"{_fmt(rho['kept_activity'])}, with mean similarity {_fmt(rho['mean_similarity'])}"
         )
     print(f"machines: {sorted({t['machine'] for t in out['per_member_timing']})}; results in results.json")
+
+
+def _choose_epochs(args: argparse.Namespace, keys: dict[int, str], member: int) -> tuple[np.ndarray, dict]:
+    """A member's matrix at its epoch count: the only one, or the one calibration chooses among several."""
+    if len(args.epochs) == 1:
+        sim, meta = _load_member(args.out / "similarity", member, keys[args.epochs[0]])
+        by_epochs = {} if meta["calibration"] is None else {str(args.epochs[0]): meta["calibration"]}
+        meta.update(epochs=args.epochs[0], calibration_by_epochs=by_epochs)
+        return sim, meta
+    found = {e: _load_member(args.out / f"epochs{e}" / "similarity", member, keys[e]) for e in args.epochs}
+    old = [e for e, (_, meta) in found.items() if meta["calibration"] is None]
+    if old:
+        raise SystemExit(f"member {member}'s matrix at {old[0]} epochs was saved without its calibration Recall@1; recompute it")
+    if any(meta["calibration"] == {} for _, meta in found.values()):
+        raise SystemExit("choosing the epochs needs calibration places (--calibration-places above 0)")
+    epochs, _ = calibrate_epochs({e: meta["calibration"] for e, (_, meta) in found.items()})
+    sim, meta = found[epochs]
+    meta.update(epochs=epochs, calibration_by_epochs={str(e): m["calibration"] for e, (_, m) in found.items()})
+    return sim, meta
 
 
 def _fmt(x: float | None, spec: str = ".2f") -> str:

@@ -17,6 +17,11 @@ module. Every function is a pure function of arrays. Defaults follow the authors
   value of :data:`THRESHOLDS` with the best Recall@1 of the calibration modules on the
   calibration queries (:func:`calibrate_threshold`; ties go to the smaller value).
   ``measure="spikes"`` counts total spikes instead (the paper's text).
+- Epochs: the authors' README names the epoch count a hyperparameter chosen on the
+  calibration data like the threshold (their released Nordland members: 60 and 70);
+  their code trains one count per run (``modular_snn/one_snn_module_processing.py``),
+  so a member trained with several counts takes the count and threshold with the best
+  calibration Recall@1 (:func:`calibrate_epochs`; ties go to fewer epochs).
 - Module output (Eq. 7) and fusion (Eq. 9): the similarity of query ``q`` to place ``p``
   is the sum of the query spikes of the neurons assigned to ``p`` with the hyperactive
   ones' spikes set to 0, divided by the number of neurons assigned to ``p``, hyperactive
@@ -31,7 +36,7 @@ module. Every function is a pure function of arrays. Defaults follow the authors
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
@@ -48,6 +53,7 @@ __all__ = [
     "module_similarity",
     "fuse_modules",
     "calibrate_threshold",
+    "calibrate_epochs",
     "ensemble_similarity",
     "distance_from_similarity",
 ]
@@ -210,6 +216,33 @@ def calibrate_threshold(
         return 0.0, recall
     best = max(recall, key=lambda t: (recall[t], -t))
     return best, recall
+
+
+def calibrate_epochs(calibration: Mapping[int, Mapping[float, float]]) -> tuple[int, float]:
+    """The epoch count and hyperactive threshold with the best calibration Recall@1.
+
+    ``calibration`` maps each epoch count a member was trained with to the calibration
+    Recall@1 of each threshold (what :func:`calibrate_threshold` returns for that count).
+    Ties go to fewer epochs, then to the smaller threshold. An epoch count with no
+    threshold evaluated counts as Recall@1 0 at threshold 0, as
+    :func:`calibrate_threshold` then uses 0.
+    """
+    if not calibration:
+        raise nv.ValidationError("calibrate_epochs needs the calibration Recall@1 of at least one epoch count, got none.")
+    candidates: list[tuple[float, int, float]] = []
+    for epochs, recall in calibration.items():
+        if int(epochs) != epochs or epochs < 1:
+            raise nv.ValidationError(f"epoch count {epochs!r} in the calibration is not a whole number >= 1.")
+        bad = [theta for theta, r in recall.items() if not (np.isfinite(r) and 0.0 <= r <= 1.0)]
+        if bad:
+            value = recall[bad[0]]
+            raise nv.ValidationError(
+                f"calibration Recall@1 of {epochs} epochs at threshold {bad[0]} is {value!r}, expected 0..1."
+            )
+        theta = max(recall, key=lambda t: (recall[t], -t)) if recall else 0.0
+        candidates.append((float(recall[theta]) if recall else 0.0, int(epochs), float(theta)))
+    best = max(candidates, key=lambda c: (c[0], -c[1], -c[2]))
+    return best[1], best[2]
 
 
 def ensemble_similarity(members: Sequence[np.ndarray]) -> np.ndarray:

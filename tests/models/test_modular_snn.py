@@ -21,6 +21,7 @@ from neurovpr.models.modular_snn import (
     TrainingSettings,
     assign_neurons,
     build_module,
+    calibrate_epochs,
     calibrate_threshold,
     ensemble_similarity,
     fuse_modules,
@@ -143,6 +144,26 @@ def test_threshold_calibration_skips_a_threshold_that_silences_every_neuron() ->
     truth = GroundTruth(matrix=np.eye(2, dtype=bool))
     best, recall = calibrate_threshold([module], 2, np.array([0, 1]), truth, thresholds=(0, 1, 5))
     assert best == 5 and recall == {0: 0.0, 5: 1.0}  # at 1 every neuron is hyperactive: no result, as in the code
+
+
+def test_epoch_calibration_takes_the_best_count_and_its_threshold() -> None:
+    calibration = {
+        20: {0.0: 0.19, 60.0: 0.40, 100.0: 0.39},
+        30: {0.0: 0.37, 20.0: 0.48, 40.0: 0.46},
+        60: {0.0: 0.10, 100.0: 0.32},
+    }
+    assert calibrate_epochs(calibration) == (30, 20.0)
+    # ties: fewer epochs first, then the smaller threshold
+    assert calibrate_epochs({40: {10.0: 0.5}, 30: {20.0: 0.5, 5.0: 0.5}}) == (30, 5.0)
+    # a count without any evaluated threshold scores 0 at threshold 0, as calibrate_threshold answers then
+    assert calibrate_epochs({10: {}, 20: {0.0: 0.0}}) == (10, 0.0)
+    assert calibrate_epochs({10: {}, 20: {40.0: 0.1}}) == (20, 40.0)
+    with pytest.raises(nv.ValidationError, match="at least one epoch count"):
+        calibrate_epochs({})
+    with pytest.raises(nv.ValidationError, match="epoch count 0"):
+        calibrate_epochs({0: {0.0: 0.5}})
+    with pytest.raises(nv.ValidationError, match="30 epochs at threshold 20.0 is nan"):
+        calibrate_epochs({30: {20.0: float("nan")}})
 
 
 def test_module_similarity_fusion_ensemble_and_distance() -> None:
