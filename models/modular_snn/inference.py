@@ -212,10 +212,12 @@ def calibrate_threshold(
         if theta > 0 and not fused.any():
             continue  # every response zeroed: the code's evaluation gives no result at this threshold
         recall[theta] = recall_at_n(distance_from_similarity(fused), ground_truth, [1])[1]
-    if not recall:
-        return 0.0, recall
-    best = max(recall, key=lambda t: (recall[t], -t))
-    return best, recall
+    return _best_threshold(recall), recall
+
+
+def _best_threshold(recall: Mapping[float, float]) -> float:
+    """The threshold with the best Recall@1 (ties: the smaller); 0 when none was evaluated."""
+    return max(recall, key=lambda t: (recall[t], -t)) if recall else 0.0
 
 
 def calibrate_epochs(calibration: Mapping[int, Mapping[float, float]]) -> tuple[int, float]:
@@ -239,8 +241,8 @@ def calibrate_epochs(calibration: Mapping[int, Mapping[float, float]]) -> tuple[
             raise nv.ValidationError(
                 f"calibration Recall@1 of {epochs} epochs at threshold {bad[0]} is {value!r}, expected 0..1."
             )
-        theta = max(recall, key=lambda t: (recall[t], -t)) if recall else 0.0
-        candidates.append((float(recall[theta]) if recall else 0.0, int(epochs), float(theta)))
+        theta = _best_threshold(recall)
+        candidates.append((float(recall.get(theta, 0.0)), int(epochs), float(theta)))
     best = max(candidates, key=lambda c: (c[0], -c[1], -c[2]))
     return best[1], best[2]
 
