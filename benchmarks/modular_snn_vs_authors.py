@@ -36,6 +36,7 @@ Usage (from the repository root)::
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import math
 import os
@@ -48,15 +49,18 @@ from typing import Any
 
 import numpy as np
 from modular_snn_nordland import select_places
-from vprsnn_oracle import OracleSettings, collect_facts, run_authors, write_lists
+from vprsnn_oracle import OracleSettings, collect_facts, ensemble_facts, route_order_rates, run_authors, write_lists
 
 from neurovpr.data.traverse import Traverse
+from neurovpr.evaluation.concentration import match_concentration
 from neurovpr.evaluation.metrics import distance_from_similarity, recall_at_n
 from neurovpr.fileio import atomic_write_text
+from neurovpr.models.baselines import sad_distances
 from neurovpr.models.modular_snn import (
     ModuleParameters,
     TrainingSettings,
     assign_neurons,
+    ensemble_similarity,
     hyperactive_neurons,
     member_similarities,
     query_responses,
@@ -78,10 +82,15 @@ def _args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--epochs", type=int, default=5, help="training epochs of every module, both sides (default 5)")
     p.add_argument("--assignment-presentations", type=int, default=25, help="the code's --update_interval (default 25)")
     p.add_argument("--seed", type=int, default=0, help="member seed (default 0)")
+    p.add_argument("--members", type=int, default=1,
+                   help="members: the authors' code with seeds SEED .. SEED+N-1 (each in WORKDIR/S<seed> when N > 1), "
+                        "neurovpr's members 0 .. N-1 of one run; N > 1 also compares the ensembles (default 1)")  # fmt: skip
     p.add_argument("--neurons", type=int, default=400, help="excitatory neurons per module (default 400)")
     p.add_argument("--authors", type=Path, default=None, help="a checkout of QVPR/VPRSNN: rerun it")
     p.add_argument("--authors-python", default=None, help="the Python that runs it (default: this one)")
     p.add_argument("--authors-revision", default=None, help="the checkout's commit, stored with the figures")
+    p.add_argument("--authors-workers", type=int, default=1,
+                   help="module steps of the authors' code run at once, each its own process (default 1)")  # fmt: skip
     p.add_argument("--workdir", type=Path, default=Path("reports/vprsnn_authors"), help="where the authors' code writes")
     p.add_argument("--write-fixture", action="store_true", help="store the authors' figures in the fixture")
     p.add_argument("--fixture", type=Path, default=FIXTURE, help="the fixture to read or write")
@@ -115,7 +124,12 @@ def filtered_traverse(n: int) -> Traverse:
 
 
 def neurovpr_facts(args: argparse.Namespace, s: OracleSettings, traverse: Traverse) -> dict[str, Any]:
-    """Train and evaluate one modular SNN here with the same settings; the same figures as :func:`collect_facts`."""
+    """Train and evaluate ``--members`` modular SNNs here with the same settings.
+
+    Returns the first member's figures (the same as :func:`collect_facts`) with ``"members"``
+    (every member's), ``"ensembles"`` (with more than one member: for every set of two or
+    more, the sum of their matrices, as :func:`ensemble_facts`) and ``"SAD"`` on the same places.
+    """
     settings = TrainingSettings(
         params=ModuleParameters(
             n_neurons=s.n_e,
@@ -130,14 +144,51 @@ def neurovpr_facts(args: argparse.Namespace, s: OracleSettings, traverse: Traver
     run_dir = args.out / "run"
     workers = args.workers or default_workers()
     start, cpu = time.perf_counter(), time.process_time()
-    summary = train_run(run_dir, reference, settings, members=1, seed=s.seed, n_calibration=s.n_cal, workers=workers, resume=True)
+    summary = train_run(
+        run_dir, reference, settings, members=args.members, seed=s.seed, n_calibration=s.n_cal, workers=workers, resume=True
+    )  # fmt: skip
     info = summary["run_info"]
     counts = query_responses(run_dir, info, query, workers=workers)
     ms = member_similarities(run_dir, info, counts, traverse.ground_truth)
     gt = traverse.ground_truth.subset(ms.places, ms.queries)
-    recall = recall_at_n(distance_from_similarity(ms.similarities[0]), gt, [1])[1]
-    theta = ms.thresholds[0]
-    tested = [mod for mod in info["modules"] if not mod["calibration"]]
+    members = [_member_facts(run_dir, info, counts, ms, gt, k, len(reference)) for k in range(args.members)]
+    sad = sad_distances(reference[ms.places], query[ms.queries], preprocess=False)  # the same 28x28 images
+    out = {
+        **members[0],
+        "members": members,
+        "SAD": {"R@1": float(recall_at_n(sad, gt, [1])[1]), **match_concentration(sad)},
+        "train_record_seconds_per_module_cpu": float(sum(info[f"{k}_cpu_seconds_per_module"] for k in ("train", "record"))),
+        "wall_seconds": round(time.perf_counter() - start, 1),
+        "main_process_cpu_seconds": round(time.process_time() - cpu, 1),
+    }
+    if args.members > 1:
+        out["ensembles"] = {}
+        for chosen in _subsets(args.members):
+            ensemble = distance_from_similarity(ensemble_similarity([ms.similarities[i] for i in chosen]))
+            c = match_concentration(ensemble)
+            out["ensembles"][_label(chosen)] = {
+                "members": len(chosen), "R@1": float(recall_at_n(ensemble, gt, [1])[1]),
+                "distinct_best_matches": c["distinct_best_matches"], "most_chosen_places": c["top_places"],
+                "most_chosen_share": c["top_share"],
+            }  # fmt: skip
+    return out
+
+
+def _subsets(n: int) -> list[tuple[int, ...]]:
+    """Every ensemble of two or more of ``n`` members (member indices), smaller ones first."""
+    return [c for k in range(2, n + 1) for c in itertools.combinations(range(n), k)]
+
+
+def _label(members: tuple[int, ...]) -> str:
+    return "+".join(map(str, members))
+
+
+def _member_facts(run_dir: Path, info: dict, counts: dict, ms: Any, gt: Any, k: int, n_reference: int) -> dict[str, Any]:
+    """Member ``k``'s figures, the same as :func:`collect_facts` reads from the authors' outputs."""
+    distances = distance_from_similarity(ms.similarities[k])
+    concentration = match_concentration(distances)
+    theta = ms.thresholds[k]
+    tested = [mod for mod in info["modules"] if not mod["calibration"] and int(mod["member"]) == k]
     records = [read_npz(run_dir / "modules" / f"{mod['name']}.npz") for mod in tested]
     q = np.concatenate([counts[mod["name"]][ms.queries] for mod in tested], axis=1)
     fired = np.concatenate([r["images_fired"] for r in records])
@@ -147,19 +198,19 @@ def neurovpr_facts(args: argparse.Namespace, s: OracleSettings, traverse: Traver
     for r in records:
         a = assign_neurons(r["own_responses"], r["places"])
         unassigned += int(np.count_nonzero(a < 0))
-        c = np.bincount(a[a >= 0], minlength=len(reference))
+        c = np.bincount(a[a >= 0], minlength=n_reference)
         per_place.append(c[c > 0])
         share.append(float(c.max() / a.size))
     per_place_all = np.concatenate(per_place)
     return {
-        "R@1": float(recall),
+        "R@1": float(recall_at_n(distances, gt, [1])[1]),
         "queries": int(ms.queries.size),
         "hyperactive_threshold_images": float(theta),
-        "calibration_R@1_by_threshold": {str(k): v for k, v in ms.calibration[0].items()},
+        "calibration_R@1_by_threshold": {str(t): v for t, v in ms.calibration[k].items()},
         "hyperactive_neurons": int(hyper.sum()),
         "hyperactive_fraction": float(hyper.mean()),
         "spikes_per_neuron_per_query_image": float(q.mean()),
-        "spikes_per_neuron_per_reference_image": float(spikes.mean() / len(reference)),
+        "spikes_per_neuron_per_reference_image": float(spikes.mean() / n_reference),
         "silent_neuron_fraction_per_query_image": float(np.mean(q == 0)),
         "reference_images_fired_for_per_neuron_mean": float(fired.mean()),
         "unassigned_neurons": unassigned,
@@ -167,24 +218,35 @@ def neurovpr_facts(args: argparse.Namespace, s: OracleSettings, traverse: Traver
         "neurons_per_assigned_place_mean": float(per_place_all.mean()),
         "neurons_per_assigned_place_max": int(per_place_all.max()),
         "largest_share_of_a_module_on_one_place": float(max(share)),
-        "train_record_seconds_per_module_cpu": float(sum(info[f"{k}_cpu_seconds_per_module"] for k in ("train", "record"))),
-        "wall_seconds": round(time.perf_counter() - start, 1),
-        "main_process_cpu_seconds": round(time.process_time() - cpu, 1),
+        "distinct_best_matches": concentration["distinct_best_matches"],
+        "most_chosen_places": concentration["top_places"],
+        "most_chosen_share": concentration["top_share"],
     }
 
 
 def _authors(args: argparse.Namespace, s: OracleSettings, argv: list[str]) -> dict[str, Any]:
-    """Run the authors' code (see :mod:`vprsnn_oracle`) and return its figures; store them with ``--write-fixture``."""
+    """Run the authors' code (see :mod:`vprsnn_oracle`) and return its figures; store them with ``--write-fixture``.
+
+    With ``--members N`` > 1 each seed runs in its own work folder ``S<seed>`` (the code's output
+    folders do not name the seed) and the record gains ``"members"`` (every seed's figures) and
+    ``"ensembles"`` (for every set of two or more members, ``"0+1"``, ..., the sum of their
+    route-ordered ``summed_rates``, as ``ens_seq/process_ensembles.py`` sums its members).
+    """
     traverse = filtered_traverse(s.n_places)
     reference, query = list(traverse.reference.paths), list(traverse.query.paths)
-    workdir = args.workdir.resolve()
-    lists = write_lists(workdir, reference, query)
     python = args.authors_python or sys.executable
     python = os.path.abspath(python) if os.sep in python else python  # the steps run in the work folder
     start = time.perf_counter()
-    run = run_authors(args.authors, python, workdir, s, lists)
-    facts = collect_facts(workdir, s, run)
-    shuffled = np.load(workdir / f"shuffled_indices_L{s.n_places}_S{s.seed}.npy", allow_pickle=False)
+    members, rates = [], []
+    for seed in range(s.seed, s.seed + args.members):
+        sk = s.with_seed(seed)
+        workdir = (args.workdir if args.members == 1 else args.workdir / f"S{seed}").resolve()
+        lists = write_lists(workdir, reference, query)
+        run = run_authors(args.authors, python, workdir, sk, lists, workers=args.authors_workers)
+        members.append(collect_facts(workdir, sk, run))
+        rates.append(route_order_rates(workdir, sk, run["threshold"]))
+        if seed == s.seed:
+            shuffled = np.load(workdir / f"shuffled_indices_L{s.n_places}_S{s.seed}.npy", allow_pickle=False)
     record = {
         "what": "figures produced by the Modular SNN authors' code (QVPR/VPRSNN), run unmodified except for its "
         "data loading (benchmarks/vprsnn_oracle.py), on the nordland64 places named below",
@@ -195,8 +257,12 @@ def _authors(args: argparse.Namespace, s: OracleSettings, argv: list[str]) -> di
         "calibration_places": sorted(int(i) for i in shuffled[: s.n_cal]),
         "machine": f"{platform.machine()}, {platform.python_version()}",
         "wall_seconds": round(time.perf_counter() - start, 1),
-        "facts": facts,
+        "facts": members[0],
     }
+    if args.members > 1:
+        record.update(
+            members=members, ensembles={_label(c): ensemble_facts([rates[i] for i in c]) for c in _subsets(args.members)}
+        )
     if args.write_fixture:
         args.fixture.parent.mkdir(parents=True, exist_ok=True)
         atomic_write_text(args.fixture, json.dumps(record, indent=1) + "\n")
@@ -227,6 +293,9 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     args = _args(argv)
     s = _settings(args)
+    if args.members < 1:
+        print(f"--members is {args.members}; expected at least 1", file=sys.stderr)
+        return 2
     if args.authors is not None:
         oracle = _authors(args, s, argv)
     elif args.fixture.is_file():
@@ -235,8 +304,12 @@ def main(argv: list[str] | None = None) -> int:
         print(f"{args.fixture} is missing: pass --authors PATH to run the authors' code", file=sys.stderr)
         return 2
     if args.only_authors:
-        print(json.dumps(oracle["facts"], indent=1))
+        print(json.dumps({k: oracle[k] for k in ("facts", "ensembles") if k in oracle}, indent=1))
         return 0
+    if len(oracle.get("members", [None])) != args.members:
+        print(f"the fixture holds {len(oracle.get('members', [None]))} member(s), not {args.members}; "
+              "rerun the authors' code with this --members", file=sys.stderr)  # fmt: skip
+        return 2
     if oracle["settings"] != s.as_dict():
         print(f"the fixture was made with {oracle['settings']}, not {s.as_dict()}; rerun the authors' code", file=sys.stderr)
         return 2
@@ -275,6 +348,26 @@ def _print(oracle: dict[str, Any], ours: dict[str, Any], s: OracleSettings) -> N
         print(f"{label:<52}{a[key]:>12.4g}{b[key]:>12.4g}")
     for key in ("spikes_per_neuron_per_query_image", "spikes_per_neuron_per_reference_image"):
         print(f"{key}: neurovpr / authors = {b[key] / a[key]:.2f}")
+    if "most_chosen_share" in a:  # fixtures made before the concentration was stored lack it
+        n_top = b["most_chosen_places"]
+        print(f"{'best matches: distinct reference places':<52}{a['distinct_best_matches']:>12}{b['distinct_best_matches']:>12}")
+        print(f"{f'queries won by the {n_top} most-chosen places (share)':<52}"
+              f"{a['most_chosen_share']:>12.3f}{b['most_chosen_share']:>12.3f}")  # fmt: skip
+    if "ensembles" in oracle:
+        head = [("authors: R@1", 14), ("distinct", 10), ("top share", 11)]
+        head += [("neurovpr: R@1", 15), ("distinct", 10), ("top share", 11)]
+        print("\n" + " " * 24 + "".join(f"{h:>{w}}" for h, w in head))
+        pairs = zip(oracle["members"], b["members"], strict=True)
+        rows = [(f"member {k} (seed {s.seed + k})", x, y) for k, (x, y) in enumerate(pairs)]
+        rows += [
+            (f"ensemble of {label.replace('+', ', ')}", x, b["ensembles"][label]) for label, x in oracle["ensembles"].items()
+        ]
+        for label, x, y in rows:
+            print(f"{label:<24}{x['R@1']:>14.3f}{x['distinct_best_matches']:>10}{x['most_chosen_share']:>11.3f}"
+                  f"{y['R@1']:>15.3f}{y['distinct_best_matches']:>10}{y['most_chosen_share']:>11.3f}")  # fmt: skip
+    sad = b["SAD"]
+    print(f"SAD on the same places: R@1 {sad['R@1']:.3f}, best matches on {sad['distinct_best_matches']} places, "
+          f"the {sad['top_places']} most-chosen win {sad['top_share']:.3f} of the queries")  # fmt: skip
     se, ok = _agree(a["R@1"], b["R@1"], s.n_test)
     print(f"\nR@1 difference {b['R@1'] - a['R@1']:+.3f}, standard error of the difference {se:.3f} over {s.n_test} queries: "
           f"{'within' if ok else 'NOT within'} 2 standard errors")  # fmt: skip

@@ -23,7 +23,8 @@ calibration modules run the calibration queries); ``--process_mode test`` for th
 modules; then the merged evaluation of ``modular_snn/modular_snn_config_evaluation.py``
 (its ``process``) over the hyperactive thresholds of ``modular_snn/modular_snn_evaluation.py``,
 first on the calibration modules and queries, then on the test modules and queries with the
-threshold that gave the best calibration Recall@1 (ties: the smaller threshold). Its
+threshold that gave the best calibration Recall@1 (ties: the stricter threshold, the model's
+``best_threshold``). Its
 ``main`` is not used because, in calibrate mode, it also searches epochs 10, 20, ... which
 needs a training run per epoch count; the oracle trains one epoch count.
 
@@ -38,12 +39,19 @@ import re
 import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-__all__ = ["LAUNCHER", "THRESHOLDS", "OracleSettings", "write_lists", "run_authors", "collect_facts"]
+from neurovpr.evaluation.concentration import match_concentration
+from neurovpr.models.modular_snn import best_threshold
+
+__all__ = [
+    "LAUNCHER", "THRESHOLDS", "OracleSettings", "write_lists", "run_authors", "collect_facts", "route_order_rates",
+    "ensemble_facts",
+]  # fmt: skip
 
 #: The hyperactive thresholds (reference images fired for) VPRSNN's modular evaluation tries.
 THRESHOLDS = (0, 5, 10, 20, 40, 60, 80, 100, 120, 140, 160, 180, 200)
@@ -102,6 +110,14 @@ class OracleSettings:
             "--n_e", str(self.n_e), "--epochs", str(self.epochs), "--seed", str(self.seed),
         ]  # fmt: skip
 
+    def with_seed(self, seed: int) -> OracleSettings:
+        """The same comparison for another member seed."""
+        d = self.as_dict()
+        return OracleSettings(
+            n_test=d["test_places"], n_cal=d["calibration_places"], module_size=d["module_size"], epochs=d["epochs"],
+            seed=seed, n_e=d["neurons"], update_interval=d["update_interval"],
+        )  # fmt: skip
+
     def as_dict(self) -> dict[str, int]:
         """JSON-ready form."""
         return {
@@ -125,10 +141,23 @@ def write_lists(workdir: Path, reference: list[Path], query: list[Path]) -> tupl
     return ref, qry
 
 
-def _run(python: str, authors: Path, workdir: Path, lists: tuple[Path, Path], script: str, argv: list[str], log: Path) -> float:
-    """One launcher call in ``workdir``; its output goes to ``log``; returns the wall seconds."""
-    cache = workdir / "brian2_cache"
-    cache.mkdir(exist_ok=True)
+def _run(
+    python: str,
+    authors: Path,
+    workdir: Path,
+    lists: tuple[Path, Path],
+    script: str,
+    argv: list[str],
+    log: Path,
+    cache: Path | None = None,
+) -> float:
+    """One launcher call in ``workdir``; its output goes to ``log``; returns the wall seconds.
+
+    ``cache`` is Brian2's code cache (the code sets it to ``$TMPDIR``, not safe to share between
+    processes that run at once: each concurrent step gets its own).
+    """
+    cache = workdir / "brian2_cache" if cache is None else cache
+    cache.mkdir(parents=True, exist_ok=True)
     env = dict(os.environ, TMPDIR=str(cache), MPLBACKEND="Agg")
     cmd = [python, str(workdir / "launch_vprsnn.py"), str(authors.resolve()), str(lists[0]), str(lists[1]), script, *argv]
     start = time.perf_counter()
@@ -154,34 +183,49 @@ def _merged_args(s: OracleSettings, mode: str, threshold: int) -> list[str]:
 
 
 def run_authors(
-    authors: Path, python: str, workdir: Path, s: OracleSettings, lists: tuple[Path, Path], *, progress: bool = True
+    authors: Path,
+    python: str,
+    workdir: Path,
+    s: OracleSettings,
+    lists: tuple[Path, Path],
+    *,
+    progress: bool = True,
+    workers: int = 1,
 ) -> dict[str, Any]:
-    """Run every step (see the module docstring); return the wall time of each and the chosen threshold."""
+    """Run every step (see the module docstring); return the wall time of each and the chosen threshold.
+
+    ``workers`` module steps run at once (each its own process, log and Brian2 cache); the
+    evaluations after them run one at a time.
+    """
+    if not (isinstance(workers, int) and workers >= 1):
+        raise ValueError(f"the authors' code: workers is {workers!r}, expected an integer >= 1.")
     log = workdir / "vprsnn.log"
     offsets = list(range(0, s.n_places, s.module_size))
     timing: dict[str, Any] = {"train_record_calibrate_seconds": {}, "test_seconds": {}}
     step = "modular_snn/one_snn_module_processing.py"
-    for k, offset in enumerate(offsets):
-        last = _module_output(workdir, s, offset, s.n_cal if offset < s.n_cal else None)
-        if last.is_file():  # this step finished in an earlier call (resume)
-            continue
+
+    def module_step(mode: str, offset: int, label: str) -> tuple[int, float]:
         if progress:
-            print(f"[authors' code] module {k + 1}/{len(offsets)} (offset {offset}): train, record, calibrate", flush=True)
-        argv = [*s.common(), "--process_mode", "train", "--offset_after_skip", str(offset), "--ad_path", f"_offset{offset}"]
-        timing["train_record_calibrate_seconds"][offset] = _run(python, authors, workdir, lists, step, argv, log)
-    for offset in offsets:
-        if offset < s.n_cal or _module_output(workdir, s, offset, s.n_test).is_file():
-            continue
-        if progress:
-            print(f"[authors' code] module offset {offset}: test", flush=True)
-        argv = [*s.common(), "--process_mode", "test", "--offset_after_skip", str(offset), "--ad_path", f"_offset{offset}"]
-        timing["test_seconds"][offset] = _run(python, authors, workdir, lists, step, argv, log)
+            print(f"[authors' code] module offset {offset}: {label}", flush=True)
+        argv = [*s.common(), "--process_mode", mode, "--offset_after_skip", str(offset), "--ad_path", f"_offset{offset}"]
+        own_log = log if workers == 1 else workdir / f"vprsnn_offset{offset}.log"
+        cache = None if workers == 1 else workdir / "brian2_cache" / f"offset{offset}"
+        return offset, _run(python, authors, workdir, lists, step, argv, own_log, cache)
+
+    # a module's steps touch only its own folders (outputs, weights, random connections: ``--ad_path``)
+    train = [o for o in offsets if not _module_output(workdir, s, o, s.n_cal if o < s.n_cal else None).is_file()]
+    test = [o for o in offsets if o >= s.n_cal and not _module_output(workdir, s, o, s.n_test).is_file()]
+    with ThreadPoolExecutor(max_workers=workers) as pool:  # finished steps (resume) are not rerun
+        for offset, seconds in pool.map(lambda o: module_step("train", o, "train, record, calibrate"), train):
+            timing["train_record_calibrate_seconds"][offset] = seconds
+        for offset, seconds in pool.map(lambda o: module_step("test", o, "test"), test):
+            timing["test_seconds"][offset] = seconds
     calibration: dict[int, float | None] = {}
     for threshold in THRESHOLDS:
         _run(python, authors, workdir, lists, "process", _merged_args(s, "calibrate", threshold), log)
         calibration[threshold] = _printed_recall(_merged_dir(workdir, s, "calibrate", threshold), missing_ok=True)
     # a threshold at which every neuron is hyperactive gives no result in the authors' evaluation (it exits)
-    best = max((t for t in THRESHOLDS if calibration[t] is not None), key=lambda t: (calibration[t], -t))
+    best = int(best_threshold({t: r for t, r in calibration.items() if r is not None}))  # the model's rule
     _run(python, authors, workdir, lists, "process", _merged_args(s, "test", best), log)
     return {"timing": timing, "calibration_R@1": calibration, "threshold": best}
 
@@ -242,6 +286,8 @@ def collect_facts(workdir: Path, s: OracleSettings, run: dict[str, Any]) -> dict
     per_place_all = np.concatenate(per_place)
     labels = np.unique(assignments)
     winners = np.argmax(summed, axis=0)
+    # rows: the reported places (as the code orders them), columns: their queries; more spikes = more alike
+    concentration = match_concentration(-np.asarray(summed, dtype=float))
     return {
         "R@1": _printed_recall(folder),
         "R@1_argmax_of_summed_rates": float(np.mean(labels[winners] == np.arange(s.n_cal, s.n_cal + s.n_test))),
@@ -259,7 +305,42 @@ def collect_facts(workdir: Path, s: OracleSettings, run: dict[str, Any]) -> dict
         "neurons_per_assigned_place_mean": float(per_place_all.mean()),
         "neurons_per_assigned_place_max": int(per_place_all.max()),
         "largest_share_of_a_module_on_one_place": float(max(share)),
+        "distinct_best_matches": concentration["distinct_best_matches"],
+        "most_chosen_places": concentration["top_places"],
+        "most_chosen_share": concentration["top_share"],
         # None when the module steps ran in an earlier, resumed call
         "train_record_seconds_per_module_wall": float(np.mean(steps)) if (steps := list(timed.values())) else None,
         "python": sys.version.split()[0],
+    }
+
+
+def route_order_rates(workdir: Path, s: OracleSettings, threshold: int) -> np.ndarray:
+    """The code's ``summed_rates`` of the reported places, rows (places) and columns (queries) in route order.
+
+    The code saves them in its shuffled order and puts them back in route order before it
+    scores them (``get_unshuffled_results`` in ``non_modular_snn/snn_model_evaluation.py``,
+    used by ``ens_seq/process_ensembles.py`` before it sums the members): place ``i`` of the
+    reported places is row ``i`` and its query column ``i``.
+    """
+    summed = _load(_merged_dir(workdir, s, "test", threshold) / "summed_rates.npy")
+    if summed.shape != (s.n_test, s.n_test):
+        raise RuntimeError(f"the authors' summed_rates has shape {summed.shape}, expected ({s.n_test}, {s.n_test})")
+    shuffled = _load(workdir / f"shuffled_indices_L{s.n_places}_S{s.seed}.npy")
+    order = np.argsort(shuffled[s.n_cal :])
+    return summed[order][:, order]
+
+
+def ensemble_facts(rates: list[np.ndarray]) -> dict[str, Any]:
+    """Recall@1 and match concentration of the sum of route-ordered ``summed_rates`` (the code's ensemble).
+
+    Ground truth: query ``i`` is place ``i`` (zero tolerance, as the code scores Nordland).
+    """
+    summed = np.sum(np.asarray(rates, dtype=float), axis=0)
+    concentration = match_concentration(-summed)
+    return {
+        "members": len(rates),
+        "R@1": float(np.mean(np.argmax(summed, axis=0) == np.arange(summed.shape[1]))),
+        "distinct_best_matches": concentration["distinct_best_matches"],
+        "most_chosen_places": concentration["top_places"],
+        "most_chosen_share": concentration["top_share"],
     }

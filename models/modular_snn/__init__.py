@@ -32,6 +32,8 @@ that gives the paper's text where a user may want it:
   10, 20, 40, ..., 200 by Recall@1 on calibration places held out of the reported ones
   (VPRSNN's calibrate mode); paper: total spikes against a threshold drawn from U(40, 100)
   or U(600, 800) (``--hyperactive spikes --theta VALUE`` fixes a threshold instead).
+  The code leaves the choice to its user; here ties go to the stricter threshold, 0 (none
+  hyperactive) last (:func:`.inference.best_threshold`).
 - places of a module: a random split per member (VPRSNN's ``get_shuffled_indices``,
   calibration places drawn with seed 42); paper: geographically separate regions
   (``--place-order route``).
@@ -69,6 +71,7 @@ from .anatomy import hub_anatomy, place_anatomy
 from .inference import (
     THRESHOLDS,
     assign_neurons,
+    best_threshold,
     calibrate_epochs,
     calibrate_threshold,
     ensemble_similarity,
@@ -91,6 +94,7 @@ __all__ = [
     "ModuleParameters",
     "TrainingSettings",
     "assign_neurons",
+    "best_threshold",
     "build_module",
     "calibrate_epochs",
     "calibrate_threshold",

@@ -20,6 +20,7 @@ from neurovpr.models.modular_snn import (
     ModuleParameters,
     TrainingSettings,
     assign_neurons,
+    best_threshold,
     build_module,
     calibrate_epochs,
     calibrate_threshold,
@@ -146,6 +147,22 @@ def test_threshold_calibration_skips_a_threshold_that_silences_every_neuron() ->
     assert best == 5 and recall == {0: 0.0, 5: 1.0}  # at 1 every neuron is hyperactive: no result, as in the code
 
 
+def test_threshold_ties_go_to_the_stricter_threshold_and_zero_marks_none_last() -> None:
+    # 0 marks no neuron hyperactive: the loosest setting, chosen on a tie only when nothing else was evaluated
+    assert best_threshold({0.0: 0.24, 20.0: 0.04, 80.0: 0.24, 200.0: 0.24}) == 80.0
+    assert best_threshold({0.0: 0.24, 80.0: 0.20}) == 0.0  # a better Recall@1 still wins
+    assert best_threshold({0.0: 0.10}) == 0.0
+    assert best_threshold({}) == 0.0
+    assert calibrate_epochs({30: {0.0: 0.5, 120.0: 0.5, 60.0: 0.5}}) == (30, 60.0)
+    # in a calibration: no neuron of the calibration module fires for 5 or more images, so 0 and 5 tie
+    counts = np.array([[5, 0], [0, 5]])
+    module = (counts, np.array([0, 1]), np.array([2, 3]))
+    best, recall = calibrate_threshold(
+        [module], 2, np.array([0, 1]), GroundTruth(matrix=np.eye(2, dtype=bool)), thresholds=(0, 5)
+    )
+    assert recall == {0: 1.0, 5: 1.0} and best == 5
+
+
 def test_epoch_calibration_takes_the_best_count_and_its_threshold() -> None:
     calibration = {
         20: {0.0: 0.19, 60.0: 0.40, 100.0: 0.39},
@@ -162,7 +179,7 @@ def test_epoch_calibration_takes_the_best_count_and_its_threshold() -> None:
         calibrate_epochs({})
     with pytest.raises(nv.ValidationError, match="epoch count 0"):
         calibrate_epochs({0: {0.0: 0.5}})
-    with pytest.raises(nv.ValidationError, match="30 epochs at threshold 20.0 is nan"):
+    with pytest.raises(nv.ValidationError, match=r"30 epochs at threshold 20\.0 is nan"):
         calibrate_epochs({30: {20.0: float("nan")}})
 
 

@@ -1,0 +1,101 @@
+"""The figures read from the authors' code's outputs (``benchmarks/vprsnn_oracle.py``).
+
+The arrays are written in the layout and names the authors' merged evaluation writes
+(``modular_snn_config_evaluation.process``), with made-up contents whose figures are known;
+running the authors' code itself needs its own environment and is the benchmark's job
+(``python benchmarks/modular_snn_vs_authors.py --authors ...``).
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _oracle():
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        spec = importlib.util.spec_from_file_location("vprsnn_oracle", ROOT / "benchmarks" / "vprsnn_oracle.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    return module
+
+
+def _write_outputs(oracle, workdir: Path, s, threshold: int, summed: np.ndarray) -> None:
+    folder = oracle._merged_dir(workdir, s, "test", threshold)
+    folder.mkdir(parents=True)
+    n_neurons = s.n_e * (s.n_test // s.module_size)
+    rng = np.random.default_rng(0)
+    reference = rng.integers(0, 3, size=(s.n_places, n_neurons))
+    np.save(folder / "validation_result_monitor.npy", reference)
+    np.save(folder / "testing_result_monitor_all.npy", rng.integers(0, 2, size=(s.n_test, n_neurons)))
+    # every test place owns n_e * modules / n_test neurons; labels are positions n_cal .. n_cal + n_test - 1
+    labels = np.repeat(np.arange(s.n_cal, s.n_places), n_neurons // s.n_test)
+    np.save(folder / "assignments.npy", labels)
+    np.save(folder / "summed_rates.npy", summed)
+    (folder / "logfile_evaluation_merged.log").write_text("Recall@1: 0.25\n")
+
+
+def test_collect_facts_reports_the_concentration_of_the_authors_best_matches(tmp_path: Path) -> None:
+    oracle = _oracle()
+    s = oracle.OracleSettings(n_test=50, n_cal=25, module_size=25, epochs=5, seed=0, n_e=50, update_interval=25)
+    # 50 reported places x 50 queries: queries 0-9 match themselves, the other 40 all pick place 7
+    summed = np.zeros((50, 50))
+    summed[np.arange(10), np.arange(10)] = 5.0
+    summed[7, 10:] = 3.0
+    _write_outputs(oracle, tmp_path, s, 40, summed)
+    run = {"threshold": 40, "timing": {"train_record_calibrate_seconds": {}}, "calibration_R@1": {40: 0.3}}
+    facts = oracle.collect_facts(tmp_path, s, run)
+    assert facts["R@1"] == pytest.approx(0.25)  # as the code printed it
+    assert facts["R@1_argmax_of_summed_rates"] == pytest.approx(10 / 50)
+    assert facts["distinct_best_matches"] == 10
+    assert facts["most_chosen_places"] == 1  # ceil(2 % of 50)
+    assert facts["most_chosen_share"] == pytest.approx(41 / 50)  # place 7: its own query and the 40 others
+
+
+def test_run_authors_refuses_a_worker_count_below_one(tmp_path: Path) -> None:
+    oracle = _oracle()
+    s = oracle.OracleSettings(n_test=50, n_cal=25, module_size=25, epochs=5, seed=0, n_e=50, update_interval=25)
+    with pytest.raises(ValueError, match="workers is 0"):
+        oracle.run_authors(tmp_path, sys.executable, tmp_path, s, (tmp_path / "r", tmp_path / "q"), workers=0)
+
+
+def test_route_order_rates_undo_the_codes_shuffle(tmp_path: Path) -> None:
+    oracle = _oracle()
+    s = oracle.OracleSettings(n_test=4, n_cal=2, module_size=2, epochs=5, seed=3, n_e=4, update_interval=25)
+    # the code's order: calibration places 5, 0, then reported places 3, 1, 4, 2 (route positions 2, 0, 3, 1 of 1..4)
+    np.save(tmp_path / "shuffled_indices_L6_S3.npy", np.array([5, 0, 3, 1, 4, 2]))
+    folder = oracle._merged_dir(tmp_path, s, "test", 20)
+    folder.mkdir(parents=True)
+    shuffled = np.array([[3, 1, 4, 2]]) * 10 + np.array([[3], [1], [4], [2]])  # row place * 1 + column place * 10
+    np.save(folder / "summed_rates.npy", shuffled)
+    rates = oracle.route_order_rates(tmp_path, s, 20)
+    places = np.array([1, 2, 3, 4])
+    np.testing.assert_array_equal(rates, places[:, None] + 10 * places[None, :])
+    np.save(folder / "summed_rates.npy", shuffled[:3])  # a place without neurons: not a square matrix
+    with pytest.raises(RuntimeError, match=r"shape \(3, 4\)"):
+        oracle.route_order_rates(tmp_path, s, 20)
+
+
+def test_ensemble_facts_score_the_sum_of_the_members() -> None:
+    oracle = _oracle()
+    # alone, member a is right on queries 0-1 and member b on 2-3; the sum is right on all four
+    a = np.array([[5, 0, 0, 0], [0, 5, 0, 0], [1, 1, 1, 1], [0, 0, 0, 0]], dtype=float)
+    b = np.array([[0, 0, 0, 0], [0, 0, 0, 0], [0, 0, 4, 0], [0, 0, 0, 4]], dtype=float)
+    facts = oracle.ensemble_facts([a, b])
+    assert facts["members"] == 2
+    assert facts["R@1"] == pytest.approx(1.0)
+    assert facts["distinct_best_matches"] == 4
+    assert facts["most_chosen_places"] == 1
+    assert facts["most_chosen_share"] == pytest.approx(0.25)
+    alone = oracle.ensemble_facts([a])
+    assert alone["R@1"] == pytest.approx(0.75)  # queries 0, 1 and 2 (place 2 answers every query with 1)
+    assert alone["most_chosen_share"] == pytest.approx(0.5)
