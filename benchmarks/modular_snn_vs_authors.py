@@ -342,7 +342,7 @@ _ROWS = (
 def _print(oracle: dict[str, Any], ours: dict[str, Any], s: OracleSettings) -> None:
     a, b = oracle["facts"], ours
     print(f"\nModular SNN vs the authors' code: {oracle['data']}")
-    print(f"{s.n_test} reported places, {s.n_cal} calibration places, {s.epochs} epochs, seed {s.seed}, one member")
+    print(f"{s.n_test} reported places, {s.n_cal} calibration places, {s.epochs} epochs, seed {s.seed}; below: member 0")
     print(f"{'':<52}{'authors':>12}{'neurovpr':>12}")
     for key, label in _ROWS:
         print(f"{label:<52}{a[key]:>12.4g}{b[key]:>12.4g}")
