@@ -49,7 +49,15 @@ from typing import Any
 
 import numpy as np
 from modular_snn_nordland import select_places
-from vprsnn_oracle import OracleSettings, collect_facts, ensemble_facts, route_order_rates, run_authors, write_lists
+from vprsnn_oracle import (
+    OracleSettings,
+    collect_facts,
+    concentration_facts,
+    ensemble_facts,
+    route_order_rates,
+    run_authors,
+    write_lists,
+)
 
 from neurovpr.data.traverse import Traverse
 from neurovpr.evaluation.concentration import match_concentration
@@ -165,11 +173,8 @@ def neurovpr_facts(args: argparse.Namespace, s: OracleSettings, traverse: Traver
         out["ensembles"] = {}
         for chosen in _subsets(args.members):
             ensemble = distance_from_similarity(ensemble_similarity([ms.similarities[i] for i in chosen]))
-            c = match_concentration(ensemble)
             out["ensembles"][_label(chosen)] = {
-                "members": len(chosen), "R@1": float(recall_at_n(ensemble, gt, [1])[1]),
-                "distinct_best_matches": c["distinct_best_matches"], "most_chosen_places": c["top_places"],
-                "most_chosen_share": c["top_share"],
+                "members": len(chosen), "R@1": float(recall_at_n(ensemble, gt, [1])[1]), **concentration_facts(ensemble),
             }  # fmt: skip
     return out
 
@@ -186,7 +191,6 @@ def _label(members: tuple[int, ...]) -> str:
 def _member_facts(run_dir: Path, info: dict, counts: dict, ms: Any, gt: Any, k: int, n_reference: int) -> dict[str, Any]:
     """Member ``k``'s figures, the same as :func:`collect_facts` reads from the authors' outputs."""
     distances = distance_from_similarity(ms.similarities[k])
-    concentration = match_concentration(distances)
     theta = ms.thresholds[k]
     tested = [mod for mod in info["modules"] if not mod["calibration"] and int(mod["member"]) == k]
     records = [read_npz(run_dir / "modules" / f"{mod['name']}.npz") for mod in tested]
@@ -218,9 +222,7 @@ def _member_facts(run_dir: Path, info: dict, counts: dict, ms: Any, gt: Any, k: 
         "neurons_per_assigned_place_mean": float(per_place_all.mean()),
         "neurons_per_assigned_place_max": int(per_place_all.max()),
         "largest_share_of_a_module_on_one_place": float(max(share)),
-        "distinct_best_matches": concentration["distinct_best_matches"],
-        "most_chosen_places": concentration["top_places"],
-        "most_chosen_share": concentration["top_share"],
+        **concentration_facts(distances),
     }
 
 
@@ -306,8 +308,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.only_authors:
         print(json.dumps({k: oracle[k] for k in ("facts", "ensembles") if k in oracle}, indent=1))
         return 0
-    if len(oracle.get("members", [None])) != args.members:
-        print(f"the fixture holds {len(oracle.get('members', [None]))} member(s), not {args.members}; "
+    held = len(oracle.get("members", [None]))  # fixtures of one member have no "members" entry
+    if held != args.members:
+        print(f"the fixture holds {held} member(s), not {args.members}; "
               "rerun the authors' code with this --members", file=sys.stderr)  # fmt: skip
         return 2
     if oracle["settings"] != s.as_dict():

@@ -50,7 +50,7 @@ from neurovpr.models.modular_snn import best_threshold
 
 __all__ = [
     "LAUNCHER", "THRESHOLDS", "OracleSettings", "write_lists", "run_authors", "collect_facts", "route_order_rates",
-    "ensemble_facts",
+    "ensemble_facts", "concentration_facts",
 ]  # fmt: skip
 
 #: The hyperactive thresholds (reference images fired for) VPRSNN's modular evaluation tries.
@@ -112,10 +112,9 @@ class OracleSettings:
 
     def with_seed(self, seed: int) -> OracleSettings:
         """The same comparison for another member seed."""
-        d = self.as_dict()
         return OracleSettings(
-            n_test=d["test_places"], n_cal=d["calibration_places"], module_size=d["module_size"], epochs=d["epochs"],
-            seed=seed, n_e=d["neurons"], update_interval=d["update_interval"],
+            n_test=self.n_test, n_cal=self.n_cal, module_size=self.module_size, epochs=self.epochs, seed=seed,
+            n_e=self.n_e, update_interval=self.update_interval,
         )  # fmt: skip
 
     def as_dict(self) -> dict[str, int]:
@@ -286,8 +285,6 @@ def collect_facts(workdir: Path, s: OracleSettings, run: dict[str, Any]) -> dict
     per_place_all = np.concatenate(per_place)
     labels = np.unique(assignments)
     winners = np.argmax(summed, axis=0)
-    # rows: the reported places (as the code orders them), columns: their queries; more spikes = more alike
-    concentration = match_concentration(-np.asarray(summed, dtype=float))
     return {
         "R@1": _printed_recall(folder),
         "R@1_argmax_of_summed_rates": float(np.mean(labels[winners] == np.arange(s.n_cal, s.n_cal + s.n_test))),
@@ -305,9 +302,8 @@ def collect_facts(workdir: Path, s: OracleSettings, run: dict[str, Any]) -> dict
         "neurons_per_assigned_place_mean": float(per_place_all.mean()),
         "neurons_per_assigned_place_max": int(per_place_all.max()),
         "largest_share_of_a_module_on_one_place": float(max(share)),
-        "distinct_best_matches": concentration["distinct_best_matches"],
-        "most_chosen_places": concentration["top_places"],
-        "most_chosen_share": concentration["top_share"],
+        # rows: the reported places (as the code orders them), columns: their queries; more spikes = more alike
+        **concentration_facts(-np.asarray(summed, dtype=float)),
         # None when the module steps ran in an earlier, resumed call
         "train_record_seconds_per_module_wall": float(np.mean(steps)) if (steps := list(timed.values())) else None,
         "python": sys.version.split()[0],
@@ -336,11 +332,18 @@ def ensemble_facts(rates: list[np.ndarray]) -> dict[str, Any]:
     Ground truth: query ``i`` is place ``i`` (zero tolerance, as the code scores Nordland).
     """
     summed = np.sum(np.asarray(rates, dtype=float), axis=0)
-    concentration = match_concentration(-summed)
     return {
         "members": len(rates),
         "R@1": float(np.mean(np.argmax(summed, axis=0) == np.arange(summed.shape[1]))),
-        "distinct_best_matches": concentration["distinct_best_matches"],
-        "most_chosen_places": concentration["top_places"],
-        "most_chosen_share": concentration["top_share"],
+        **concentration_facts(-summed),
+    }
+
+
+def concentration_facts(distances: np.ndarray) -> dict[str, Any]:
+    """The comparison's concentration figures of a ``[reference, query]`` distance matrix (both sides use it)."""
+    c = match_concentration(distances)
+    return {
+        "distinct_best_matches": c["distinct_best_matches"],
+        "most_chosen_places": c["top_places"],
+        "most_chosen_share": c["top_share"],
     }
