@@ -51,9 +51,11 @@ import numpy as np
 from modular_snn_nordland import select_places
 from vprsnn_oracle import (
     OracleSettings,
+    by_size,
     collect_facts,
     concentration_facts,
     ensemble_facts,
+    neurons_vs_breadth,
     route_order_rates,
     run_authors,
     write_lists,
@@ -67,11 +69,11 @@ from neurovpr.models.baselines import sad_distances
 from neurovpr.models.modular_snn import (
     ModuleParameters,
     TrainingSettings,
-    assign_neurons,
     ensemble_similarity,
     hyperactive_neurons,
     member_similarities,
     query_responses,
+    record_assignments,
     train_run,
 )
 from neurovpr.models.modular_snn.parallel import default_workers, read_npz
@@ -179,6 +181,11 @@ def neurovpr_facts(args: argparse.Namespace, s: OracleSettings, traverse: Traver
     return out
 
 
+def _size_cells(v: dict[str, float], width: int) -> str:
+    share, spread = v["most_chosen_share"], v["spread"]
+    return f"{v['R@1']:>{width}.3f}{v['distinct_best_matches']:>10.1f}{share:>11.3f}{spread:>8.2f}"
+
+
 def _subsets(n: int) -> list[tuple[int, ...]]:
     """Every ensemble of two or more of ``n`` members (member indices), smaller ones first."""
     return [c for k in range(2, n + 1) for c in itertools.combinations(range(n), k)]
@@ -198,9 +205,10 @@ def _member_facts(run_dir: Path, info: dict, counts: dict, ms: Any, gt: Any, k: 
     fired = np.concatenate([r["images_fired"] for r in records])
     spikes = np.concatenate([r["total_spikes"] for r in records])
     hyper = hyperactive_neurons(fired, theta)
-    per_place, share, unassigned = [], [], 0
+    per_place, share, unassigned, assigned = [], [], 0, []
     for r in records:
-        a = assign_neurons(r["own_responses"], r["places"])
+        a = record_assignments(r)
+        assigned.append(a)
         unassigned += int(np.count_nonzero(a < 0))
         c = np.bincount(a[a >= 0], minlength=n_reference)
         per_place.append(c[c > 0])
@@ -222,6 +230,7 @@ def _member_facts(run_dir: Path, info: dict, counts: dict, ms: Any, gt: Any, k: 
         "neurons_per_assigned_place_mean": float(per_place_all.mean()),
         "neurons_per_assigned_place_max": int(per_place_all.max()),
         "largest_share_of_a_module_on_one_place": float(max(share)),
+        "neurons_vs_breadth_rank_correlation": neurons_vs_breadth(np.concatenate(assigned), fired),
         **concentration_facts(distances),
     }
 
@@ -335,6 +344,7 @@ _ROWS = (
     ("neurons_per_assigned_place_mean", "neurons per assigned place (mean)"),
     ("neurons_per_assigned_place_max", "neurons per assigned place (max)"),
     ("largest_share_of_a_module_on_one_place", "largest share of a module's neurons on one place"),
+    ("neurons_vs_breadth_rank_correlation", "places: rank corr. of neuron count and breadth"),
     ("places_with_neurons", "places with at least one neuron"),
     ("unassigned_neurons", "unassigned neurons"),
     ("hyperactive_threshold_images", "hyperactive threshold (reference images)"),
@@ -348,7 +358,8 @@ def _print(oracle: dict[str, Any], ours: dict[str, Any], s: OracleSettings) -> N
     print(f"{s.n_test} reported places, {s.n_cal} calibration places, {s.epochs} epochs, seed {s.seed}; below: member 0")
     print(f"{'':<52}{'authors':>12}{'neurovpr':>12}")
     for key, label in _ROWS:
-        print(f"{label:<52}{a[key]:>12.4g}{b[key]:>12.4g}")
+        if key in a:  # fixtures made before a figure was stored lack it
+            print(f"{label:<52}" + "".join(f"{v:>12.4g}" if v is not None else f"{'n/a':>12}" for v in (a[key], b[key])))
     for key in ("spikes_per_neuron_per_query_image", "spikes_per_neuron_per_reference_image"):
         print(f"{key}: neurovpr / authors = {b[key] / a[key]:.2f}")
     if "most_chosen_share" in a:  # fixtures made before the concentration was stored lack it
@@ -365,9 +376,18 @@ def _print(oracle: dict[str, Any], ours: dict[str, Any], s: OracleSettings) -> N
         rows += [
             (f"ensemble of {label.replace('+', ', ')}", x, b["ensembles"][label]) for label, x in oracle["ensembles"].items()
         ]
+        if len(oracle["members"]) > 3:  # every ensemble is in comparison.json; printed: members and means by size
+            rows = rows[: len(oracle["members"])]
         for label, x, y in rows:
             print(f"{label:<24}{x['R@1']:>14.3f}{x['distinct_best_matches']:>10}{x['most_chosen_share']:>11.3f}"
                   f"{y['R@1']:>15.3f}{y['distinct_best_matches']:>10}{y['most_chosen_share']:>11.3f}")  # fmt: skip
+        a_sizes, b_sizes = by_size(oracle["members"], oracle["ensembles"]), by_size(b["members"], b["ensembles"])
+        print("\nmeans over every ensemble of a size; spread: the share of them less concentrated than their members' mean")
+        print(f"{'':<24}" + "".join(f"{h:>{w}}" for h, w in (*head[:3], ("spread", 8), *head[3:], ("spread", 8))))
+        for n in a_sizes:
+            cells = [_size_cells(v, w) for v, w in ((a_sizes[n], 14), (b_sizes[n], 15))]
+            label = ("members" if n == 1 else f"ensembles of {n}") + f" ({a_sizes[n]['count']})"
+            print(f"{label:<24}" + "".join(cells))
     sad = b["SAD"]
     print(f"SAD on the same places: R@1 {sad['R@1']:.3f}, best matches on {sad['distinct_best_matches']} places, "
           f"the {sad['top_places']} most-chosen win {sad['top_share']:.3f} of the queries")  # fmt: skip

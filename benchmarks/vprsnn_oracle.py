@@ -34,6 +34,7 @@ off) and the Recall@1 the code prints, and returns the figures the comparison us
 
 from __future__ import annotations
 
+import math
 import os
 import re
 import subprocess
@@ -44,6 +45,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from scipy.stats import spearmanr
 
 from neurovpr.evaluation.concentration import match_concentration
 from neurovpr.models.modular_snn import best_threshold
@@ -302,12 +304,32 @@ def collect_facts(workdir: Path, s: OracleSettings, run: dict[str, Any]) -> dict
         "neurons_per_assigned_place_mean": float(per_place_all.mean()),
         "neurons_per_assigned_place_max": int(per_place_all.max()),
         "largest_share_of_a_module_on_one_place": float(max(share)),
+        "neurons_vs_breadth_rank_correlation": neurons_vs_breadth(assignments, fired),
         # rows: the reported places (as the code orders them), columns: their queries; more spikes = more alike
         **concentration_facts(-np.asarray(summed, dtype=float)),
         # None when the module steps ran in an earlier, resumed call
         "train_record_seconds_per_module_wall": float(np.mean(steps)) if (steps := list(timed.values())) else None,
         "python": sys.version.split()[0],
     }
+
+
+def neurons_vs_breadth(assignments: np.ndarray, fired: np.ndarray) -> float | None:
+    """Rank correlation, over places with neurons, of a place's neuron count with how broadly they fire.
+
+    ``assignments``: the place (any label) of each neuron, -1 for none; ``fired``: the
+    reference images each neuron fired for. Breadth is the mean of ``fired`` over a
+    place's neurons. Broadly firing neurons gather on the place shown last in training
+    (the last image a module learns before its weights freeze), and assignment ties go
+    to the place shown first; where ties go decides whether this is positive (both sides
+    use it). None when every place holds as many neurons, or their breadths are all equal.
+    """
+    a = np.asarray(assignments, dtype=np.int64)
+    fired = np.asarray(fired, dtype=float)
+    labels, inverse, counts = np.unique(a[a >= 0], return_inverse=True, return_counts=True)
+    breadth = np.bincount(inverse, weights=fired[a >= 0], minlength=labels.size) / counts
+    if np.ptp(counts) == 0 or np.ptp(breadth) == 0:
+        return None
+    return float(spearmanr(counts, breadth).statistic)
 
 
 def route_order_rates(workdir: Path, s: OracleSettings, threshold: int) -> np.ndarray:
@@ -346,4 +368,26 @@ def concentration_facts(distances: np.ndarray) -> dict[str, Any]:
         "distinct_best_matches": c["distinct_best_matches"],
         "most_chosen_places": c["top_places"],
         "most_chosen_share": c["top_share"],
+    }
+
+
+def by_size(members: list[dict[str, Any]], ensembles: dict[str, dict[str, Any]]) -> dict[int, dict[str, float]]:
+    """Means over the members (size 1) and over every ensemble of each size 2, 3, ...
+
+    For each size: ``count`` (how many), the means of ``R@1``, ``distinct_best_matches`` and
+    ``most_chosen_share``, and ``spread``: the share of those ensembles whose most-chosen places
+    win less than the mean of their members' most-chosen places (0 for the members themselves).
+    """
+    groups: dict[int, list[tuple[dict[str, Any], float]]] = {1: [(m, math.inf) for m in members]}
+    for label, facts in ensembles.items():
+        chosen = [int(k) for k in label.split("+")]
+        own = float(np.mean([members[k]["most_chosen_share"] for k in chosen]))
+        groups.setdefault(len(chosen), []).append((facts, own))
+    return {
+        n: {
+            "count": len(g),
+            **{key: float(np.mean([f[key] for f, _ in g])) for key in ("R@1", "distinct_best_matches", "most_chosen_share")},
+            "spread": float(np.mean([f["most_chosen_share"] < own for f, own in g])) if n > 1 else 0.0,
+        }
+        for n, g in sorted(groups.items())
     }

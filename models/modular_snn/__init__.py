@@ -24,7 +24,8 @@ that gives the paper's text where a user may want it:
 - presentation order: one random order per module, repeated every epoch; paper: not stated.
 - assignment: from the spike counts of the last 250 training presentations, while
   learning (``--update_interval``); paper: after training (``--assignment-presentations``
-  sets the window).
+  sets the window). A neuron that fired equally for several places goes to the one shown
+  first in training (the code's ``get_new_assignments``); paper: not stated.
 - place score: spikes of a place's neurons divided by all neurons assigned to it,
   hyperactive ones zeroed but counted (the "standard" assignment); paper: the sum
   (``--place-score sum``).
@@ -83,8 +84,8 @@ from .inference import (
 from .network import ModuleParameters, build_module
 from .plan import make_plan
 from .plugin import MODEL, ModularSNNPlugin
-from .runs import MemberSimilarities, member_similarities, query_responses, train_run
-from .training import TrainingSettings, derive_seed, train_module
+from .runs import MemberSimilarities, member_similarities, query_responses, record_assignments, train_run
+from .training import TrainingSettings, derive_seed, presentation_order, train_module
 
 __all__ = [
     "MODEL",
@@ -107,7 +108,9 @@ __all__ = [
     "member_similarities",
     "module_similarity",
     "place_anatomy",
+    "presentation_order",
     "query_responses",
+    "record_assignments",
     "reference_activity",
     "train_module",
     "train_run",

@@ -68,7 +68,7 @@ THRESHOLDS = (0, 5, 10, 20, 40, 60, 80, 100, 120, 140, 160, 180, 200)
 SCORES = ("standard", "sum")
 
 
-def assign_neurons(responses: np.ndarray, places: np.ndarray) -> np.ndarray:
+def assign_neurons(responses: np.ndarray, places: np.ndarray, order: np.ndarray | None = None) -> np.ndarray:
     """Place of each neuron (Eq. 4): ``places[argmax_p responses[p, i]]``, or -1 if it never fired.
 
     Parameters
@@ -78,6 +78,14 @@ def assign_neurons(responses: np.ndarray, places: np.ndarray) -> np.ndarray:
         order of ``places``).
     places
         Global indices of the module's places.
+    order
+        The order the places were shown in training (indices into ``places``, as
+        :func:`.training.presentation_order` gives them); a neuron that fired equally for
+        several places goes to the one shown first, as VPRSNN's ``get_new_assignments``
+        (labels in presentation order, replaced only by a strictly higher rate). Default:
+        row order. Spike counts tie often (about a fifth of a module's neurons at 5
+        epochs); breaking ties by place index instead favours the same places in every
+        member, since the places' indices do not change between members.
     """
     r = np.asarray(responses)
     places = np.asarray(places, dtype=np.int64)
@@ -85,7 +93,12 @@ def assign_neurons(responses: np.ndarray, places: np.ndarray) -> np.ndarray:
         raise nv.ValidationError(
             f"assignment needs one response row per module place: got shape {r.shape} for {places.size} places."
         )
-    best = np.argmax(r, axis=0)
+    rank = np.arange(places.size) if order is None else np.asarray(order, dtype=np.int64)
+    if rank.shape != (places.size,) or not np.array_equal(np.sort(rank), np.arange(places.size)):
+        raise nv.ValidationError(
+            f"the presentation order of a module of {places.size} places must be a permutation of 0..{places.size - 1}."
+        )
+    best = rank[np.argmax(r[rank], axis=0)]
     out = places[best]
     out[r.max(axis=0) <= 0] = -1
     return out

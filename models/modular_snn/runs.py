@@ -54,7 +54,7 @@ from .inference import (
 )
 from .parallel import npz_bytes, query_job, read_npz, run_jobs, train_job
 from .plan import ModulePlan, calibration_places, describe_plan, make_plan, split_queries
-from .training import TrainingSettings, derive_seed
+from .training import TrainingSettings, derive_seed, presentation_order
 
 __all__ = [
     "MemberSimilarities",
@@ -63,6 +63,7 @@ __all__ = [
     "train_run",
     "query_responses",
     "member_similarities",
+    "record_assignments",
     "RUN_FORMAT",
 ]
 
@@ -395,6 +396,17 @@ class MemberSimilarities:
     anatomy: list[dict[str, np.ndarray]]
 
 
+def record_assignments(record: Mapping[str, np.ndarray]) -> np.ndarray:
+    """The place of each neuron of a module record (``modules/*.npz``), -1 if it never fired.
+
+    :func:`.inference.assign_neurons` on the record's ``own_responses``, ties broken by the
+    order the module showed its places in, derived from the record's seed
+    (:func:`.training.presentation_order`).
+    """
+    places = np.asarray(record["places"], dtype=np.int64)
+    return assign_neurons(record["own_responses"], places, order=presentation_order(int(record["seed"]), places.size))
+
+
 def member_similarities(
     run_dir: str | Path,
     run_info: dict[str, Any],
@@ -430,7 +442,7 @@ def member_similarities(
             if int(mod["member"]) != int(m):
                 continue
             rec = read_npz(_modules_dir(run_dir) / f"{mod['name']}.npz")
-            assignments = assign_neurons(rec["own_responses"], rec["places"])
+            assignments = record_assignments(rec)
             activity = rec["images_fired"] if measure == "images" else rec["total_spikes"]
             parts[bool(mod.get("calibration", False))].append((counts[mod["name"]], assignments, activity))
         recall: dict[float, float] = {}

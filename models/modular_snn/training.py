@@ -53,7 +53,15 @@ from neurovpr.data.encoding import RateCoding
 
 from .network import EXC, INPUT, INPUT_PROJECTION, ModuleParameters, build_module
 
-__all__ = ["TrainingSettings", "Presenter", "normalise_input_weights", "train_module", "record_responses", "derive_seed"]
+__all__ = [
+    "TrainingSettings",
+    "Presenter",
+    "normalise_input_weights",
+    "train_module",
+    "record_responses",
+    "derive_seed",
+    "presentation_order",
+]
 
 #: Published code: membranes start this far below rest when the rest is simulated.
 _V_START_OFFSET = -40.0
@@ -155,6 +163,19 @@ class TrainingSettings:
 def derive_seed(seed: int, *keys: int) -> int:
     """A 31-bit seed derived from ``seed`` and integer ``keys`` (``numpy.random.SeedSequence``)."""
     return int(np.random.SeedSequence([int(seed), *map(int, keys)]).generate_state(1, dtype=np.uint32)[0] >> 1)
+
+
+def presentation_order(seed: int, n_places: int) -> np.ndarray:
+    """The order a module seeded with ``seed`` shows its ``n_places`` places in every epoch.
+
+    Indices into the module's places (as :func:`train_module` receives them); drawn once
+    from ``numpy.random.default_rng([seed, 1])``. The assignment breaks ties by it
+    (:func:`.inference.assign_neurons`), so it is derived here, in one place, from the seed
+    every module record keeps.
+    """
+    if n_places < 1:
+        raise nv.ValidationError(f"a module needs at least one place to order, got {n_places}.")
+    return np.random.default_rng([int(seed), 1]).permutation(int(n_places))
 
 
 class Presenter:
@@ -294,7 +315,7 @@ def train_module(
     start, cpu_start = time.perf_counter(), time.process_time()
     sim = nv.compile(settings.network(name, seed), backend=settings.backend, dt=settings.dt, seed=int(seed))
     presenter = Presenter(sim, settings)
-    order = np.random.default_rng([int(seed), 1]).permutation(places.size)  # one order, every epoch
+    order = presentation_order(seed, places.size)  # one order, every epoch
     epoch = [(t, k) for t in range(len(traverses)) for k in order]
     first_counted = settings.epochs * len(epoch) - settings.assignment_presentations
     summed = np.zeros((places.size, settings.params.n_neurons))

@@ -99,3 +99,35 @@ def test_ensemble_facts_score_the_sum_of_the_members() -> None:
     alone = oracle.ensemble_facts([a])
     assert alone["R@1"] == pytest.approx(0.75)  # queries 0, 1 and 2 (place 2 answers every query with 1)
     assert alone["most_chosen_share"] == pytest.approx(0.5)
+
+
+def test_by_size_means_members_and_every_ensemble_of_a_size() -> None:
+    oracle = _oracle()
+    members = [
+        {"R@1": 0.1, "distinct_best_matches": 50, "most_chosen_share": 0.20},
+        {"R@1": 0.2, "distinct_best_matches": 60, "most_chosen_share": 0.30},
+        {"R@1": 0.3, "distinct_best_matches": 70, "most_chosen_share": 0.10},
+    ]
+    ensembles = {
+        "0+1": {"R@1": 0.3, "distinct_best_matches": 55, "most_chosen_share": 0.24},  # members' mean 0.25: spread
+        "0+2": {"R@1": 0.4, "distinct_best_matches": 65, "most_chosen_share": 0.16},  # mean 0.15: not
+        "1+2": {"R@1": 0.5, "distinct_best_matches": 75, "most_chosen_share": 0.20},  # mean 0.20: not (equal)
+        "0+1+2": {"R@1": 0.6, "distinct_best_matches": 80, "most_chosen_share": 0.10},  # mean 0.20: spread
+    }
+    sizes = oracle.by_size(members, ensembles)
+    assert list(sizes) == [1, 2, 3]
+    assert sizes[1] == pytest.approx({"count": 3, "R@1": 0.2, "distinct_best_matches": 60, "most_chosen_share": 0.2, "spread": 0})
+    assert sizes[2] == pytest.approx(
+        {"count": 3, "R@1": 0.4, "distinct_best_matches": 65, "most_chosen_share": 0.2, "spread": 1 / 3}
+    )
+    assert sizes[3] == pytest.approx({"count": 1, "R@1": 0.6, "distinct_best_matches": 80, "most_chosen_share": 0.1, "spread": 1})
+
+
+def test_neurons_vs_breadth_ranks_places_by_neuron_count_and_breadth() -> None:
+    oracle = _oracle()
+    # places 7, 3, 5 hold 3, 2 and 1 neurons firing for 20, 5 and 1 images on average; -1 is skipped
+    assignments = np.array([7, 7, 7, 3, 3, 5, -1])
+    fired = np.array([10, 20, 30, 4, 6, 1, 99])
+    assert oracle.neurons_vs_breadth(assignments, fired) == pytest.approx(1.0)
+    assert oracle.neurons_vs_breadth(assignments, np.array([1, 1, 1, 5, 5, 20, 0])) == pytest.approx(-1.0)
+    assert oracle.neurons_vs_breadth(np.array([7, 3]), np.array([4, 6])) is None  # one neuron each

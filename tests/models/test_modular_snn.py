@@ -30,7 +30,9 @@ from neurovpr.models.modular_snn import (
     make_plan,
     member_similarities,
     module_similarity,
+    presentation_order,
     query_responses,
+    record_assignments,
     reference_activity,
     train_module,
     train_run,
@@ -127,6 +129,35 @@ def test_assignment_is_eq4_argmax_with_unassigned_silent_neurons() -> None:
     responses = np.array([[3, 0, 1, 0], [5, 0, 1, 0], [1, 2, 1, 0]])  # 3 places x 4 neurons
     a = assign_neurons(responses, np.array([10, 11, 12]))
     np.testing.assert_array_equal(a, [11, 12, 10, -1])  # tie in neuron 2 -> first place
+
+
+def test_assignment_ties_go_to_the_place_shown_first() -> None:
+    # neuron 0 ties between places 10 and 12, neuron 1 between all three, neuron 2 does not tie
+    responses = np.array([[2, 1, 0], [1, 1, 3], [2, 1, 0]])
+    places = np.array([10, 11, 12])
+    np.testing.assert_array_equal(assign_neurons(responses, places), [10, 10, 11])  # row order
+    np.testing.assert_array_equal(assign_neurons(responses, places, order=np.array([2, 1, 0])), [12, 12, 11])
+    np.testing.assert_array_equal(assign_neurons(responses, places, order=np.array([1, 2, 0])), [12, 11, 11])
+    with pytest.raises(nv.ValidationError, match="permutation"):
+        assign_neurons(responses, places, order=np.array([0, 0, 1]))
+    # a module record: the order comes from its seed, as the module was trained
+    seed = 4
+    order = presentation_order(seed, 3)
+    record = {"places": places, "own_responses": responses, "seed": np.int64(seed)}
+    np.testing.assert_array_equal(record_assignments(record), assign_neurons(responses, places, order=order))
+    assert record_assignments(record)[1] == places[order[0]]  # the three-way tie: the first shown
+
+
+def test_training_shows_places_in_presentation_order() -> None:
+    # only the very last training presentation is counted for the assignment: its place is
+    # the last of presentation_order (seed 3: place 3, neither the first nor the last index)
+    settings = dataclasses.replace(TINY, epochs=1, assignment_presentations=1)
+    places = np.arange(6)
+    _, own, _, _ = train_module(tiny_images(6), places, settings, seed=3)
+    last = presentation_order(3, places.size)[-1]
+    assert last == 3
+    assert own[last].sum() > 0
+    np.testing.assert_array_equal(np.flatnonzero(own.sum(axis=1)), [last])
 
 
 def test_hyperactive_neurons_counted_in_reference_images() -> None:

@@ -16,12 +16,12 @@ import neurovpr as nv
 from neurovpr.data.ground_truth import GroundTruth
 from neurovpr.models.modular_snn import (
     MODEL,
-    assign_neurons,
     fuse_modules,
     hyperactive_neurons,
     member_similarities,
     module_similarity,
     query_responses,
+    record_assignments,
     train_module,
     train_run,
 )
@@ -116,7 +116,7 @@ def test_run_with_an_extra_traverse_records_it_and_resume_checks_it(tmp_path: Pa
         [
             module_similarity(
                 counts[m["name"]],
-                assign_neurons(r["own_responses"], r["places"]),
+                record_assignments(r),
                 4,
                 ignore=hyperactive_neurons(r["images_fired"], 3.0),
             )
@@ -128,7 +128,7 @@ def test_run_with_an_extra_traverse_records_it_and_resume_checks_it(tmp_path: Pa
     assert ms.thresholds == [3.0] and ms.calibration == [{}]
     # the neurons behind each reported place, from the same assignments and threshold
     anatomy = ms.anatomy[0]
-    assignments = np.concatenate([assign_neurons(r["own_responses"], r["places"]) for r in records])
+    assignments = np.concatenate([record_assignments(r) for r in records])
     fired = np.concatenate([r["images_fired"] for r in records])
     np.testing.assert_array_equal(anatomy["assigned"], np.bincount(assignments[assignments >= 0], minlength=4))
     keep = (assignments >= 0) & (fired < 3)
