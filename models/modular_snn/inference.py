@@ -83,9 +83,9 @@ def assign_neurons(responses: np.ndarray, places: np.ndarray, order: np.ndarray 
         :func:`.training.presentation_order` gives them); a neuron that fired equally for
         several places goes to the one shown first, as VPRSNN's ``get_new_assignments``
         (labels in presentation order, replaced only by a strictly higher rate). Default:
-        row order. Spike counts tie often (about a fifth of a module's neurons at 5
-        epochs); breaking ties by place index instead favours the same places in every
-        member, since the places' indices do not change between members.
+        row order. Spike counts tie often when the assignment window holds few
+        presentations per place; breaking ties by place index instead favours the same places
+        in every member, since the places' indices do not change between members.
     """
     r = np.asarray(responses)
     places = np.asarray(places, dtype=np.int64)
