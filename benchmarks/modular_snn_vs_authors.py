@@ -373,11 +373,10 @@ def _print(oracle: dict[str, Any], ours: dict[str, Any], s: OracleSettings) -> N
         print("\n" + " " * 24 + "".join(f"{h:>{w}}" for h, w in head))
         pairs = zip(oracle["members"], b["members"], strict=True)
         rows = [(f"member {k} (seed {s.seed + k})", x, y) for k, (x, y) in enumerate(pairs)]
-        rows += [
-            (f"ensemble of {label.replace('+', ', ')}", x, b["ensembles"][label]) for label, x in oracle["ensembles"].items()
-        ]
-        if len(oracle["members"]) > 3:  # every ensemble is in comparison.json; printed: members and means by size
-            rows = rows[: len(oracle["members"])]
+        if len(oracle["members"]) <= 3:  # with more, every ensemble is in comparison.json; printed: means by size
+            rows += [
+                (f"ensemble of {label.replace('+', ', ')}", x, b["ensembles"][label]) for label, x in oracle["ensembles"].items()
+            ]
         for label, x, y in rows:
             print(f"{label:<24}{x['R@1']:>14.3f}{x['distinct_best_matches']:>10}{x['most_chosen_share']:>11.3f}"
                   f"{y['R@1']:>15.3f}{y['distinct_best_matches']:>10}{y['most_chosen_share']:>11.3f}")  # fmt: skip

@@ -34,7 +34,6 @@ off) and the Recall@1 the code prints, and returns the figures the comparison us
 
 from __future__ import annotations
 
-import math
 import os
 import re
 import subprocess
@@ -52,7 +51,7 @@ from neurovpr.models.modular_snn import best_threshold
 
 __all__ = [
     "LAUNCHER", "THRESHOLDS", "OracleSettings", "write_lists", "run_authors", "collect_facts", "route_order_rates",
-    "ensemble_facts", "concentration_facts",
+    "ensemble_facts", "concentration_facts", "neurons_vs_breadth", "by_size",
 ]  # fmt: skip
 
 #: The hyperactive thresholds (reference images fired for) VPRSNN's modular evaluation tries.
@@ -378,7 +377,7 @@ def by_size(members: list[dict[str, Any]], ensembles: dict[str, dict[str, Any]])
     ``most_chosen_share``, and ``spread``: the share of those ensembles whose most-chosen places
     win less than the mean of their members' most-chosen places (0 for the members themselves).
     """
-    groups: dict[int, list[tuple[dict[str, Any], float]]] = {1: [(m, math.inf) for m in members]}
+    groups: dict[int, list[tuple[dict[str, Any], float | None]]] = {1: [(m, None) for m in members]}
     for label, facts in ensembles.items():
         chosen = [int(k) for k in label.split("+")]
         own = float(np.mean([members[k]["most_chosen_share"] for k in chosen]))
@@ -387,7 +386,7 @@ def by_size(members: list[dict[str, Any]], ensembles: dict[str, dict[str, Any]])
         n: {
             "count": len(g),
             **{key: float(np.mean([f[key] for f, _ in g])) for key in ("R@1", "distinct_best_matches", "most_chosen_share")},
-            "spread": float(np.mean([f["most_chosen_share"] < own for f, own in g])) if n > 1 else 0.0,
+            "spread": 0.0 if n == 1 else float(np.mean([f["most_chosen_share"] < own for f, own in g])),
         }
         for n, g in sorted(groups.items())
     }
