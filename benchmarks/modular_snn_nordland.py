@@ -77,7 +77,7 @@ from neurovpr.models.modular_snn import (
     train_run,
 )
 from neurovpr.models.modular_snn.parallel import default_workers
-from neurovpr.models.modular_snn.plan import default_calibration_places, describe_plan
+from neurovpr.models.modular_snn.plan import SEEDINGS, default_calibration_places, describe_plan
 from neurovpr.models.modular_snn.plugin import load_traverse
 from neurovpr.models.modular_snn.report import evaluate_similarities, write_plots
 from neurovpr.models.modular_snn.runs import digest, reference_digest
@@ -127,6 +127,9 @@ def _args() -> argparse.Namespace:
     p.add_argument("--combine", action="store_true", help="evaluate from the saved matrices of every member in --out")
     p.add_argument("--integration", choices=("euler", "exact"), default="euler",
                    help="cell steps (ModuleParameters.integration; default euler, as the authors' code)")  # fmt: skip
+    p.add_argument("--seeding", choices=SEEDINGS, default="module",
+                   help="random draws: every module its own (default), or as the authors' code "
+                        "(models/modular_snn/plan.py)")  # fmt: skip
     return p.parse_args()
 
 
@@ -148,6 +151,8 @@ def _member_key(args: argparse.Namespace, settings: TrainingSettings, reference:
     """What a saved member matrix must match to join an ensemble: data, settings, seed."""
     parts = [settings.as_dict(), reference_digest(reference), reference_digest(query), args.seed, args.subset, args.places]
     parts.append(args.calibration_places)
+    if args.seeding != "module":  # matrices saved before the option existed keep their key
+        parts.append(args.seeding)
     return digest(parts)
 
 
@@ -222,7 +227,7 @@ def main() -> int:
             continue
         summary = train_run(
             run_dir, reference, settings, members=args.members, seed=args.seed, workers=workers, resume=args.resume,
-            only_members=only, n_calibration=args.calibration_places,
+            only_members=only, n_calibration=args.calibration_places, seeding=args.seeding,
         )  # fmt: skip
         info = summary["run_info"]
         trained_now += summary["trained_now"]

@@ -77,7 +77,7 @@ from neurovpr.models.modular_snn import (
     train_run,
 )
 from neurovpr.models.modular_snn.parallel import default_workers, read_npz
-from neurovpr.models.modular_snn.plan import calibration_places
+from neurovpr.models.modular_snn.plan import SEEDINGS, calibration_places
 from neurovpr.models.modular_snn.plugin import load_traverse
 from neurovpr.paths import shared_datasets
 
@@ -115,6 +115,9 @@ def _args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--integration", choices=("exact", "euler"), default=None,
                    help="neurovpr side: how a step advances the cells (ModuleParameters.integration; default: the "
                         "model's; euler: the code's forward-Euler steps)")  # fmt: skip
+    p.add_argument("--seeding", choices=SEEDINGS, default="module",
+                   help="neurovpr side: random draws, every module its own (default) or as the authors' code (the same "
+                        "initial weights in every module, one Poisson seed per member; models/modular_snn/plan.py)")  # fmt: skip
     return p.parse_args(argv)
 
 
@@ -155,7 +158,8 @@ def neurovpr_facts(args: argparse.Namespace, s: OracleSettings, traverse: Traver
     workers = args.workers or default_workers()
     start, cpu = time.perf_counter(), time.process_time()
     summary = train_run(
-        run_dir, reference, settings, members=args.members, seed=s.seed, n_calibration=s.n_cal, workers=workers, resume=True
+        run_dir, reference, settings, members=args.members, seed=s.seed, n_calibration=s.n_cal, workers=workers, resume=True,
+        seeding=args.seeding,
     )  # fmt: skip
     info = summary["run_info"]
     counts = query_responses(run_dir, info, query, workers=workers)

@@ -59,10 +59,11 @@ that gives the paper's text where a user may want it:
 
 Not reproduced: the code's evaluation gives a row only to the labels some neuron holds
 (-1, unassigned, included), here every place has a row and one without neurons scores 0.
-Not reproduced either: the code draws every module's initial weights with ``np.random.seed(0)``
+Random draws: the code draws every module's initial weights with ``np.random.seed(0)``
 (``tools/random_connection_generator.py``), the same for every module and member, and seeds Brian2
 with the member's seed in every module step, so all modules of a member get the same Poisson
-input streams; here each module draws its own from its seed (:func:`.training.derive_seed`).
+input streams; by default each module here draws its own from its seed
+(:func:`.training.derive_seed`), ``--seeding code`` draws as the code does (:mod:`.plan`).
 
 Epochs: the published code trains one epoch count per run, 30 in its Nordland configuration,
 the default here (``--epochs``); the authors' README calls the count a hyperparameter chosen

@@ -209,14 +209,16 @@ class ModuleParameters:
             raise nv.ValidationError(f"module parameters contain unknown key {unknown[0]!r}.")
         return cls(**{**_LATER_SWITCHES, **data})
 
-    def learning_rule(self, seed: int | None = None) -> nv.DiehlCookSTDP:
+    def learning_rule(self, seed: int | None = None, delay_seed: int | None = None) -> nv.DiehlCookSTDP:
         """The input projection's synapse: initial weights, delays and the chosen STDP form (``mu`` is the paper's).
 
         With ``seed``, the initial weights and delays are drawn here, from
         ``numpy.random.default_rng([seed, 0])``, and stored in the graph as
         ``(n_input, n_neurons)`` arrays, so a saved module keeps its delays whatever
-        seed it is compiled with later. Without it they are distributions that
-        ``nv.compile`` resolves with its own seed.
+        seed it is compiled with later; ``delay_seed`` draws the delays apart, from
+        ``numpy.random.default_rng([delay_seed, 1])`` (the authors' code draws its weights
+        with NumPy and its delays with Brian2's generator). Without ``seed`` they are
+        distributions that ``nv.compile`` resolves with its own seed.
         """
         delay: Any = None
         if seed is None:
@@ -228,7 +230,8 @@ class ModuleParameters:
             shape = (self.n_input, self.n_neurons)
             weight = rng.uniform(self.w_init_low, self.w_init_high, size=shape)
             if self.delay_max > 0:
-                delay = rng.uniform(self.delay_min, self.delay_max, size=shape)
+                source = rng if delay_seed is None else np.random.default_rng([int(delay_seed), 1])
+                delay = source.uniform(self.delay_min, self.delay_max, size=shape)
         common = {
             "weight": weight,
             "delay": delay,
@@ -247,6 +250,7 @@ def build_module(
     params: ModuleParameters | None = None,
     *,
     seed: int | None = None,
+    delay_seed: int | None = None,
     name: str = "modular_snn_module",
     v_init_e: float | None = None,
     v_init_i: float | None = None,
@@ -260,6 +264,8 @@ def build_module(
     seed
         Draw the initial input weights and delays now (see
         :meth:`ModuleParameters.learning_rule`); ``None`` leaves them to ``nv.compile``.
+    delay_seed
+        With ``seed``: draw the delays from this seed instead of with the weights.
     name
         Network name.
     v_init_e, v_init_i
@@ -283,7 +289,7 @@ def build_module(
     )  # fmt: skip
     net.add_population(EXC, p.n_neurons, exc, v_init=v_init_e)
     net.add_population(INH, p.n_neurons, inh, v_init=v_init_i)
-    net.connect(INPUT, EXC, nv.AllToAllConnector(), p.learning_rule(seed), receptor_type="excitatory")
+    net.connect(INPUT, EXC, nv.AllToAllConnector(), p.learning_rule(seed, delay_seed), receptor_type="excitatory")
     recurrent = p.delay_recurrent
     net.connect(EXC, INH, nv.OneToOneConnector(), nv.StaticSynapse(weight=p.w_ei, delay=recurrent), receptor_type="excitatory")
     net.connect(

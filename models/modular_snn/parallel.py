@@ -85,6 +85,8 @@ def train_job(
     seed: int,
     fingerprint: str,
     n_traverses: int = 1,
+    network_seed: int | None = None,
+    stream_seed: int | None = None,
 ) -> dict[str, Any]:
     """Train one module and return its files' bytes (runs in a worker).
 
@@ -97,7 +99,8 @@ def train_job(
     each neuron fired for with learning off, over the images of the first (main)
     reference traverse, as VPRSNN's ``record`` mode counts them (``total_spikes``,
     ``images_fired``, for hyperactive-neuron detection; ``n_traverses`` says how many
-    traverses were trained on), the seed, the timing and the job's fingerprint.
+    traverses were trained on), the seeds (``network_seed`` and ``stream_seed``: ``seed``
+    when not given, see :mod:`.plan`), the timing and the job's fingerprint.
     """
     cfg = TrainingSettings.from_dict(json.loads(settings))
     places = np.asarray(places, dtype=np.int64)
@@ -106,7 +109,12 @@ def train_job(
         raise nv.ValidationError(f"module {name!r}: {len(reference)} training images cannot be {t} traverses of equal length.")
     n_ref = len(reference) // t
     traverses = [reference[k * n_ref : (k + 1) * n_ref] for k in range(t)]
-    network, own, responses, timing = train_module(traverses[0], places, cfg, seed, name=name, extra_references=traverses[1:])
+    weights = int(seed if network_seed is None else network_seed)
+    stream = int(seed if stream_seed is None else stream_seed)
+    network, own, responses, timing = train_module(
+        traverses[0], places, cfg, seed, name=name, extra_references=traverses[1:], network_seed=network_seed,
+        stream_seed=stream_seed,
+    )
     main = responses[:n_ref]
     record = npz_bytes(
         places=places,
@@ -116,6 +124,8 @@ def train_job(
         n_traverses=np.int64(t),
         theta=network.populations["exc"].cell_type.theta_init,
         seed=np.int64(seed),
+        network_seed=np.int64(weights),
+        stream_seed=np.int64(stream),
         **{key: np.float64(value) for key, value in timing.items()},
         n_presentations=np.int64(t * (cfg.epochs * places.size + n_ref)),
         fingerprint=np.str_(fingerprint),

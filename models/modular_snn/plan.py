@@ -10,9 +10,19 @@ the ensemble relies on); modules take consecutive runs of that list, calibration
 and reported places never in one module. ``"route"`` takes the calibration places (the
 same set) and the other places in route order (geographically contiguous regions).
 When a part is not a multiple of ``module_size`` its remainder forms a last, smaller
-module. Module ``k`` of member ``m`` is seeded with ``derive_seed(seed, m, 0, k)``
-(initial weights, delays, Poisson spikes, presentation order), member ``m``'s split with
-``derive_seed(seed, m, 1)``.
+module. Member ``m``'s split is drawn with ``derive_seed(seed, m, 1)``.
+
+Seeds (``seeding``). Module ``k`` of member ``m`` has its own seed
+``derive_seed(seed, m, 0, k)``, which always draws its presentation order. With
+``seeding="module"`` (the default) it also draws the module's initial weights and
+delays and its Poisson input spikes, so no two modules share any random draw.
+``seeding="code"`` seeds as VPRSNN does: ``tools/random_connection_generator.py`` draws
+the initial weights after ``np.random.seed(0)``, the same for every module of every
+member (here ``derive_seed(seed, 1_000_000)``, one draw per run), and
+``non_modular_snn/snn_model.py`` calls ``b2.seed(args.seed)`` in every module step, so all
+modules of a member draw the same input delays (Brian2's ``rand()``) and receive the same
+Poisson streams (here both from ``derive_seed(seed, m, 2)``): for the queries, every module
+of a member sees the same input spikes.
 
 Calibration and reported places. The calibration modules and the calibration queries
 (queries whose matches are all calibration places) choose each member's hyperactive
@@ -37,6 +47,8 @@ from .training import derive_seed
 __all__ = [
     "ModulePlan",
     "PLACE_ORDERS",
+    "SEEDINGS",
+    "query_seed",
     "place_split",
     "calibration_places",
     "default_calibration_places",
@@ -46,19 +58,39 @@ __all__ = [
 ]
 
 PLACE_ORDERS = ("shuffled", "route")
+#: How modules draw their random numbers (see the module docstring).
+SEEDINGS = ("module", "code")
+#: The key of the run-wide initial-weight seed of ``seeding="code"``.
+_SHARED_NETWORK_KEY = 1_000_000
 #: The seed of VPRSNN's draw of the calibration places (the same for every member).
 _CALIBRATION_SEED = 42
 
 
 @dataclass(frozen=True, slots=True)
 class ModulePlan:
-    """One module job: which member and module, its name, places and seed, and whether it calibrates."""
+    """One module job: which member and module, its name, places and seeds, and whether it calibrates.
+
+    ``seed`` draws the presentation order; ``network_seed`` the initial weights;
+    ``stream_seed`` the input delays and Poisson spikes (``None``: everything from ``seed``,
+    as ``seeding="module"``).
+    """
 
     member: int
     module: int
     places: np.ndarray
     seed: int
     calibration: bool = False
+    network_seed: int | None = None
+    stream_seed: int | None = None
+
+    @property
+    def seeds(self) -> dict[str, int]:
+        """The seeds a record and ``run.json`` store: ``seed``, ``network_seed``, ``stream_seed``."""
+        return {
+            "seed": int(self.seed),
+            "network_seed": int(self.seed if self.network_seed is None else self.network_seed),
+            "stream_seed": int(self.seed if self.stream_seed is None else self.stream_seed),
+        }
 
     @property
     def name(self) -> str:
@@ -96,9 +128,17 @@ def place_split(n_places: int, n_calibration: int, seed: int) -> tuple[np.ndarra
 
 
 def make_plan(
-    n_places: int, module_size: int, members: int, seed: int, place_order: str = "shuffled", n_calibration: int = 0
+    n_places: int,
+    module_size: int,
+    members: int,
+    seed: int,
+    place_order: str = "shuffled",
+    n_calibration: int = 0,
+    seeding: str = "module",
 ) -> list[ModulePlan]:
     """Every module of every member, member-major: calibration modules first (see the module docstring)."""
+    if seeding not in SEEDINGS:
+        raise nv.ValidationError(f"seeding is {seeding!r}, expected one of {', '.join(SEEDINGS)}.")
     if int(n_places) < 1:
         raise nv.ValidationError(f"the reference set has {n_places} places, expected at least 1.")
     if not 1 <= int(members) <= 100:
@@ -114,11 +154,27 @@ def make_plan(
             cal, rest = cal_set, np.setdiff1d(np.arange(n_places), cal_set)
         chunks = [(cal[i : i + module_size], True) for i in range(0, cal.size, module_size)]
         chunks += [(rest[i : i + module_size], False) for i in range(0, rest.size, module_size)]
+        shared = (derive_seed(seed, _SHARED_NETWORK_KEY), derive_seed(seed, m, 2)) if seeding == "code" else (None, None)
         for k, (places, calibrates) in enumerate(chunks):
             plan.append(
-                ModulePlan(member=m, module=k, places=np.sort(places), seed=derive_seed(seed, m, 0, k), calibration=calibrates)
+                ModulePlan(
+                    member=m, module=k, places=np.sort(places), seed=derive_seed(seed, m, 0, k), calibration=calibrates,
+                    network_seed=shared[0], stream_seed=shared[1],
+                )
             )
     return plan
+
+
+def query_seed(module: dict[str, Any], run_seed: int = 0) -> int:
+    """The Poisson seed of a module's queries, from its ``run.json`` entry.
+
+    ``derive_seed(stream_seed, 2)`` (``stream_seed``: the module's own seed when the entry
+    has none, as in runs written before it existed); a nonzero ``run_seed`` (``neurovpr
+    compare --seed``) draws other input spikes, ``derive_seed(stream_seed, 2, run_seed)``.
+    With ``seeding="code"`` every module of a member gets the same seed.
+    """
+    stream = int(module.get("stream_seed", module["seed"]))
+    return derive_seed(stream, 2) if int(run_seed) == 0 else derive_seed(stream, 2, int(run_seed))
 
 
 def describe_plan(n_places: int, module_size: int, n_calibration: int = 0) -> str:

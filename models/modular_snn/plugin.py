@@ -39,7 +39,7 @@ from neurovpr.resources import check_network
 from .deployment import deployed_network, deployment_form, static_network
 from .network import ModuleParameters
 from .parallel import default_workers
-from .plan import calibration_places, default_calibration_places, describe_plan, split_queries
+from .plan import calibration_places, default_calibration_places, describe_plan, query_seed, split_queries
 from .report import evaluate_similarities, write_plots
 from .runs import RUN_FORMAT, member_similarities, query_responses, reference_digest, train_run
 from .training import TrainingSettings
@@ -76,6 +76,11 @@ class ModularTrainOptions:
     place_score: Literal["standard", "sum"] = option("standard", "place score: spikes per assigned neuron, or the sum")
     place_order: Literal["shuffled", "route"] = option(
         "shuffled", "places of a module: random per member, or consecutive"
+    )
+    seeding: Literal["module", "code"] = option(
+        "module",
+        "random draws: every module its own, or as the authors' code (the same initial weights in every module, "
+        "the same Poisson streams in every module of a member)",
     )
     calibration_places: int | None = option(
         None,
@@ -226,6 +231,7 @@ class ModularSNNPlugin(ModelPlugin):
             members=int(o.members),
             seed=request.seed,
             place_order=o.place_order,
+            seeding=o.seeding,
             n_calibration=n_cal,
             hyperactive=o.hyperactive,
             theta=o.theta,
@@ -348,7 +354,7 @@ class ModularSNNPlugin(ModelPlugin):
             if not path.is_file():
                 raise nv.ValidationError(f"{path} is missing; the run directory is incomplete.")
             net_bytes = path.read_bytes()
-            job_seed = derive_seed(int(mod["seed"]), 2) if seed == 0 else derive_seed(int(mod["seed"]), 2, int(seed))
+            job_seed = query_seed(mod, seed)
             own = ref_rows[np.asarray(mod["places"], dtype=np.int64)] if form != "original" else ref_rows[:0]
             jobs.append((cfg, backend, net_bytes, job_seed, learns, form, own, derive_seed(int(mod["seed"]), 3)))
         results: dict[int, dict[str, Any]] = {}

@@ -19,8 +19,8 @@ mode shows the first training traverse.
 Resume. A module counts as finished when its ``.npz`` record and network file both read
 back whole (:func:`neurovpr.apps.rundir.damaged_part`: CRC-32 of the record's members, the
 network file's checksum; a damaged one is named and trained again) and the record carries the fingerprint of the same job
-(settings, data including every extra traverse's images, places, seed); a record with
-another fingerprint is refused rather than mixed in. Because every module depends only on its own seed, a resumed run gives
+(settings, data including every extra traverse's images, places, seeds); a record with
+another fingerprint is refused rather than mixed in. Because every module depends only on its own seeds, a resumed run gives
 bit-identical files and results to an uninterrupted one on the same backend and machine.
 """
 
@@ -53,8 +53,8 @@ from .inference import (
     module_similarity,
 )
 from .parallel import npz_bytes, query_job, read_npz, run_jobs, train_job
-from .plan import ModulePlan, calibration_places, describe_plan, make_plan, split_queries
-from .training import TrainingSettings, derive_seed, presentation_order
+from .plan import ModulePlan, calibration_places, describe_plan, make_plan, query_seed, split_queries
+from .training import TrainingSettings, presentation_order
 
 __all__ = [
     "MemberSimilarities",
@@ -135,6 +135,7 @@ def train_run(
     progress: bool = True,
     extra_references: Sequence[np.ndarray] = (),
     only_members: Sequence[int] | None = None,
+    seeding: str = "module",
 ) -> dict[str, Any]:
     """Train every module of every member into ``run_dir``; write ``run.json`` when all are done.
 
@@ -169,6 +170,10 @@ def train_run(
         spread the members of one ensemble over several machines; every member's
         modules are seeded by the master seed and the member index alone, so a member
         trained this way is the member a full run trains.
+    seeding
+        ``"module"`` (every module its own random draws) or ``"code"`` (VPRSNN's: the same
+        initial weights in every module, the same Poisson streams in every module of a
+        member); see :mod:`.plan`. Stored in ``run.json`` with every module's seeds.
 
     Returns
     -------
@@ -203,13 +208,14 @@ def train_run(
     existing = _modules_dir(run_dir).is_dir() and any(_modules_dir(run_dir).iterdir())
     if (existing or RunDir(run_dir).info_file.exists()) and not resume:
         raise nv.ValidationError(f"{run_dir} already holds a run; pass --resume to continue it or choose another --out.")
-    plan = make_plan(n_ref, settings.module_size, members, seed, place_order, n_calibration)
+    plan = make_plan(n_ref, settings.module_size, members, seed, place_order, n_calibration, seeding)
     cfg = json.dumps(settings.as_dict(), sort_keys=True)
     data_digest = digest(images)
     extra_digests = [digest(extra) for extra in extras]
     # without extra traverses the fingerprint is the one of single-traverse runs (they stay resumable)
     extra_part = (extra_digests,) if extras else ()
-    prints = [digest(cfg, data_digest, j.places, j.seed, j.name, *extra_part) for j in plan]
+    # the shared seeds join the fingerprint only when they exist, so that runs seeded per module stay resumable
+    prints = [digest(cfg, data_digest, j.places, j.seed, j.name, *extra_part, *_shared_seeds(j)) for j in plan]
     n_chosen = sum(1 for j in plan if j.member in chosen)
     todo = [i for i, j in enumerate(plan) if j.member in chosen and not _finished(run_dir, j, prints[i])]
     skipped = n_chosen - len(todo)
@@ -226,7 +232,10 @@ def train_run(
 
     n_traverses = 1 + len(extras)
     shared = np.concatenate([images, *extras], axis=0) if extras else images
-    jobs = [(cfg, f"modular_snn_{plan[i].name}", plan[i].places, plan[i].seed, prints[i], n_traverses) for i in todo]
+    jobs = [
+        (cfg, f"modular_snn_{plan[i].name}", plan[i].places, plan[i].seed, prints[i], n_traverses, *_shared_seeds(plan[i]))
+        for i in todo
+    ]
     start = time.perf_counter()
     bar = _bar(n_chosen, skipped, "training modules", progress)
     try:
@@ -269,6 +278,7 @@ def train_run(
         "members": int(members),
         "module_size": settings.module_size,
         "place_order": place_order,
+        "seeding": seeding,
         "plan": describe_plan(n_ref, settings.module_size, n_calibration),
         "calibration_places": calibration_places(n_ref, n_calibration).tolist(),
         "hyperactive": {"measure": hyperactive, "theta": None if theta is None else float(theta), "thresholds": list(THRESHOLDS)},
@@ -276,7 +286,7 @@ def train_run(
         "settings": settings.as_dict(),
         "modules": [
             {
-                "member": j.member, "module": j.module, "name": j.name, "seed": j.seed, "places": j.places.tolist(),
+                "member": j.member, "module": j.module, "name": j.name, **j.seeds, "places": j.places.tolist(),
                 "calibration": j.calibration,
             }
             for j in done
@@ -293,6 +303,14 @@ def train_run(
     RunDir(run_dir).write_info(run_info, indent=1)
     summary.update(complete=True)
     return summary
+
+
+def _shared_seeds(job: ModulePlan) -> tuple[int, ...]:
+    """``(network_seed, stream_seed)`` of a module seeded as VPRSNN seeds (``seeding="code"``), else ``()``."""
+    if job.network_seed is None and job.stream_seed is None:
+        return ()
+    seeds = job.seeds
+    return seeds["network_seed"], seeds["stream_seed"]
 
 
 def _bar(total: int, initial: int, desc: str, enabled: bool) -> Any:
@@ -344,15 +362,19 @@ def query_responses(
         if not h5.is_file():
             raise nv.ValidationError(f"{h5} is missing; the run directory is incomplete.")
         net_bytes = h5.read_bytes()
-        # the options join the key only when given, so that caches written without them stay valid
-        key = digest(q_digest, backend, *([options] if backend_options else []), hashlib.sha256(net_bytes).hexdigest())
+        # the options and a shared stream seed join the key only when given, so that caches written without them stay valid
+        seed = query_seed(mod)
+        key = digest(
+            q_digest, backend, *([options] if backend_options else []), hashlib.sha256(net_bytes).hexdigest(),
+            *([seed] if "stream_seed" in mod and int(mod["stream_seed"]) != int(mod["seed"]) else []),
+        )
         cached = cache / f"{name}.npz"
         if cached.is_file():
             rec = read_npz(cached)
             if str(rec.get("key", "")) == key:
                 out[name] = rec["counts"]
                 continue
-        jobs.append((cfg, backend, options, net_bytes, derive_seed(int(mod["seed"]), 2)))
+        jobs.append((cfg, backend, options, net_bytes, seed))
         names.append(name)
         keys.append(key)
 

@@ -151,13 +151,14 @@ class TrainingSettings:
         except (KeyError, TypeError) as exc:
             raise nv.ValidationError(f"training settings are incomplete or malformed ({exc}).") from None
 
-    def network(self, name: str, seed: int | None = None) -> nv.Network:
-        """A fresh (untrained) module graph with these settings (initial weights and delays from ``seed``)."""
+    def network(self, name: str, seed: int | None = None, delay_seed: int | None = None) -> nv.Network:
+        """A fresh (untrained) module graph with these settings (initial weights and delays from ``seed``;
+        the delays from ``delay_seed`` when given, see :func:`.network.build_module`)."""
         p = self.params
         if self.simulate_rest:
             v_e, v_i = p.v_rest_e + _V_START_OFFSET, p.v_rest_i + _V_START_OFFSET
-            return build_module(p, seed=seed, name=name, v_init_e=v_e, v_init_i=v_i)
-        return build_module(p, seed=seed, name=name)
+            return build_module(p, seed=seed, delay_seed=delay_seed, name=name, v_init_e=v_e, v_init_i=v_i)
+        return build_module(p, seed=seed, delay_seed=delay_seed, name=name)
 
 
 def derive_seed(seed: int, *keys: int) -> int:
@@ -259,6 +260,8 @@ def train_module(
     name: str = "module",
     tick: Callable[[], None] | None = None,
     extra_references: Sequence[np.ndarray] = (),
+    network_seed: int | None = None,
+    stream_seed: int | None = None,
 ) -> tuple[nv.Network, np.ndarray, np.ndarray, dict[str, float]]:
     """Train one module on ``reference[places]`` and record its responses to all of ``reference``.
 
@@ -271,8 +274,8 @@ def train_module(
     settings
         Graph, coding and training settings.
     seed
-        Seed of everything random in this module: initial weights, delays, Poisson
-        spikes (all through ``nv.compile``) and the presentation order.
+        Seed of the presentation order and, unless given apart, of everything else
+        random in this module: initial weights, delays and Poisson spikes.
     name
         Name of the learned network.
     tick
@@ -280,6 +283,11 @@ def train_module(
     extra_references
         Further training traverses of the same ``N`` places, each shaped like
         ``reference`` (see the module docstring); empty: train on ``reference`` alone.
+    network_seed, stream_seed
+        Given apart (see :mod:`.plan`, ``seeding``): the seed of the initial weights, and
+        the seed of the input delays and Poisson spikes (through ``nv.compile``), as the
+        authors' code draws its weights with NumPy and its delays and Poisson spikes with
+        Brian2's generator. ``None`` (both): everything from ``seed``.
 
     Returns
     -------
@@ -313,7 +321,11 @@ def train_module(
             f"module {name!r}: images have {images.shape[1]} pixels but the module has {settings.params.n_input} inputs."
         )
     start, cpu_start = time.perf_counter(), time.process_time()
-    sim = nv.compile(settings.network(name, seed), backend=settings.backend, dt=settings.dt, seed=int(seed))
+    apart = network_seed is not None or stream_seed is not None
+    weights = int(seed if network_seed is None else network_seed)
+    stream = int(seed if stream_seed is None else stream_seed)
+    graph = settings.network(name, weights, stream if apart else None)
+    sim = nv.compile(graph, backend=settings.backend, dt=settings.dt, seed=stream)
     presenter = Presenter(sim, settings)
     order = presentation_order(seed, places.size)  # one order, every epoch
     epoch = [(t, k) for t in range(len(traverses)) for k in order]
