@@ -26,6 +26,12 @@ defaults are the settings of the stored fixture (75 reported and 25 calibration 
 5 epochs, assignment from the last 25 presentations, seed 0), so the plain command
 compares with it.
 
+``--theta T`` evaluates both sides at one fixed hyperactive threshold (reference images a
+neuron fires for) instead of each member's threshold calibrated on 25 places (the authors'
+side reuses its finished module steps and reruns only its test evaluation; its figures go
+to a fixture of their own, which records the threshold). ``--seeding code`` trains this
+model's side with the authors' code's random draws (:mod:`neurovpr.models.modular_snn.plan`).
+
 Usage (from the repository root)::
 
     python benchmarks/modular_snn_vs_authors.py                        # the fixture vs neurovpr
@@ -115,6 +121,9 @@ def _args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--integration", choices=("exact", "euler"), default=None,
                    help="neurovpr side: how a step advances the cells (ModuleParameters.integration; default: the "
                         "model's; euler: the code's forward-Euler steps)")  # fmt: skip
+    p.add_argument("--theta", type=int, default=None,
+                   help="both sides at this fixed hyperactive threshold (reference images fired for) instead of each "
+                        "member's calibrated one; the authors' finished module steps are reused")  # fmt: skip
     p.add_argument("--seeding", choices=SEEDINGS, default="module",
                    help="neurovpr side: random draws, every module its own (default) or as the authors' code (the same "
                         "initial weights in every module, one Poisson seed per member; models/modular_snn/plan.py)")  # fmt: skip
@@ -159,7 +168,7 @@ def neurovpr_facts(args: argparse.Namespace, s: OracleSettings, traverse: Traver
     start, cpu = time.perf_counter(), time.process_time()
     summary = train_run(
         run_dir, reference, settings, members=args.members, seed=s.seed, n_calibration=s.n_cal, workers=workers, resume=True,
-        seeding=args.seeding,
+        seeding=args.seeding, theta=None if args.theta is None else float(args.theta),
     )  # fmt: skip
     info = summary["run_info"]
     counts = query_responses(run_dir, info, query, workers=workers)
@@ -257,7 +266,7 @@ def _authors(args: argparse.Namespace, s: OracleSettings, argv: list[str]) -> di
         sk = s.with_seed(seed)
         workdir = (args.workdir if args.members == 1 else args.workdir / f"S{seed}").resolve()
         lists = write_lists(workdir, reference, query)
-        run = run_authors(args.authors, python, workdir, sk, lists, workers=args.authors_workers)
+        run = run_authors(args.authors, python, workdir, sk, lists, workers=args.authors_workers, theta=args.theta)
         members.append(collect_facts(workdir, sk, run))
         rates.append(route_order_rates(workdir, sk, run["threshold"]))
         if seed == s.seed:
@@ -268,6 +277,7 @@ def _authors(args: argparse.Namespace, s: OracleSettings, argv: list[str]) -> di
         "command": "python benchmarks/modular_snn_vs_authors.py " + " ".join(shlex.quote(a) for a in _portable(argv)),
         "authors_revision": args.authors_revision,
         "settings": s.as_dict(),
+        **({} if args.theta is None else {"theta": args.theta}),
         "data": f"nordland64, the first {s.n_places} places of the VPRSNN Nordland list (summer reference, winter query)",
         "calibration_places": sorted(int(i) for i in shuffled[: s.n_cal]),
         "machine": f"{platform.machine()}, {platform.python_version()}",
@@ -311,6 +321,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.members < 1:
         print(f"--members is {args.members}; expected at least 1", file=sys.stderr)
         return 2
+    if args.theta is not None and args.theta < 0:
+        print(f"--theta is {args.theta}; expected a whole number of reference images >= 0", file=sys.stderr)
+        return 2
     if args.authors is not None:
         oracle = _authors(args, s, argv)
     elif args.fixture.is_file():
@@ -328,6 +341,10 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     if oracle["settings"] != s.as_dict():
         print(f"the fixture was made with {oracle['settings']}, not {s.as_dict()}; rerun the authors' code", file=sys.stderr)
+        return 2
+    if oracle.get("theta") != args.theta:
+        made, asked = (("calibrated thresholds" if t is None else f"--theta {t}") for t in (oracle.get("theta"), args.theta))
+        print(f"the fixture was made with {made}, not {asked}; rerun the authors' code with this --theta", file=sys.stderr)
         return 2
     ours = neurovpr_facts(args, s, filtered_traverse(s.n_places))
     if oracle.get("calibration_places") != calibration_places(s.n_places, s.n_cal).tolist():

@@ -24,7 +24,8 @@ modules; then the merged evaluation of ``modular_snn/modular_snn_config_evaluati
 (its ``process``) over the hyperactive thresholds of ``modular_snn/modular_snn_evaluation.py``,
 first on the calibration modules and queries, then on the test modules and queries with the
 threshold that gave the best calibration Recall@1 (ties: the stricter threshold, the model's
-``best_threshold``). Its
+``best_threshold``), or, given a fixed threshold (``theta``), only on the test modules and
+queries with it. Its
 ``main`` is not used because, in calibrate mode, it also searches epochs 10, 20, ... which
 needs a training run per epoch count; the oracle trains one epoch count.
 
@@ -191,14 +192,18 @@ def run_authors(
     *,
     progress: bool = True,
     workers: int = 1,
+    theta: int | None = None,
 ) -> dict[str, Any]:
     """Run every step (see the module docstring); return the wall time of each and the chosen threshold.
 
     ``workers`` module steps run at once (each its own process, log and Brian2 cache); the
-    evaluations after them run one at a time.
+    evaluations after them run one at a time. ``theta``: evaluate the test modules at this
+    hyperactive threshold (reference images) instead of calibrating one (no calibration runs).
     """
     if not (isinstance(workers, int) and workers >= 1):
         raise ValueError(f"the authors' code: workers is {workers!r}, expected an integer >= 1.")
+    if theta is not None and not (isinstance(theta, int) and not isinstance(theta, bool) and theta >= 0):
+        raise ValueError(f"the authors' code: theta is {theta!r}, expected a whole number of reference images >= 0.")
     log = workdir / "vprsnn.log"
     offsets = list(range(0, s.n_places, s.module_size))
     timing: dict[str, Any] = {"train_record_calibrate_seconds": {}, "test_seconds": {}}
@@ -221,11 +226,11 @@ def run_authors(
         for offset, seconds in pool.map(lambda o: module_step("test", o, "test"), test):
             timing["test_seconds"][offset] = seconds
     calibration: dict[int, float | None] = {}
-    for threshold in THRESHOLDS:
+    for threshold in THRESHOLDS if theta is None else ():
         _run(python, authors, workdir, lists, "process", _merged_args(s, "calibrate", threshold), log)
         calibration[threshold] = _printed_recall(_merged_dir(workdir, s, "calibrate", threshold), missing_ok=True)
     # a threshold at which every neuron is hyperactive gives no result in the authors' evaluation (it exits)
-    best = int(best_threshold({t: r for t, r in calibration.items() if r is not None}))  # the model's rule
+    best = int(best_threshold({t: r for t, r in calibration.items() if r is not None})) if theta is None else theta
     _run(python, authors, workdir, lists, "process", _merged_args(s, "test", best), log)
     return {"timing": timing, "calibration_R@1": calibration, "threshold": best}
 

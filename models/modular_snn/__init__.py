@@ -63,7 +63,10 @@ Random draws: the code draws every module's initial weights with ``np.random.see
 (``tools/random_connection_generator.py``), the same for every module and member, and seeds Brian2
 with the member's seed in every module step, so all modules of a member get the same Poisson
 input streams; by default each module here draws its own from its seed
-(:func:`.training.derive_seed`), ``--seeding code`` draws as the code does (:mod:`.plan`).
+(:func:`.training.derive_seed`), ``--seeding code`` draws as the code does (:mod:`.plan`). The
+default stays: with the code's draws this model's members agree with the code's, but their
+ensembles gain less and concentrate their best matches more than the code's at every common
+hyperactive threshold (README, ``benchmarks/modular_snn_vs_authors.py --seeding code --theta``).
 
 Epochs: the published code trains one epoch count per run, 30 in its Nordland configuration,
 the default here (``--epochs``); the authors' README calls the count a hyperparameter chosen

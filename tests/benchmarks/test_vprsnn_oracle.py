@@ -9,6 +9,7 @@ running the authors' code itself needs its own environment and is the benchmark'
 from __future__ import annotations
 
 import importlib.util
+import json
 import sys
 from pathlib import Path
 
@@ -66,6 +67,37 @@ def test_run_authors_refuses_a_worker_count_below_one(tmp_path: Path) -> None:
     s = oracle.OracleSettings(n_test=50, n_cal=25, module_size=25, epochs=5, seed=0, n_e=50, update_interval=25)
     with pytest.raises(ValueError, match="workers is 0"):
         oracle.run_authors(tmp_path, sys.executable, tmp_path, s, (tmp_path / "r", tmp_path / "q"), workers=0)
+
+
+def test_run_authors_with_a_fixed_threshold_evaluates_only_the_test_modules_at_it(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    oracle = _oracle()
+    s = oracle.OracleSettings(n_test=50, n_cal=25, module_size=25, epochs=5, seed=0, n_e=50, update_interval=25)
+    for offset in range(0, s.n_places, s.module_size):  # every module step finished (a resumed run)
+        for queries in (s.n_cal if offset < s.n_cal else None, s.n_test):
+            path = oracle._module_output(tmp_path, s, offset, queries)
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_bytes(b"")
+    calls: list[list[str]] = []
+
+    def run(python, authors, workdir, lists, step, argv, log, cache=None):
+        calls.append([step, *argv])
+        return 0.0
+
+    monkeypatch.setattr(oracle, "_run", run)
+    monkeypatch.setattr(oracle, "_printed_recall", lambda folder, missing_ok=False: 0.2 if "T100" in str(folder) else 0.1)
+    lists = (tmp_path / "r", tmp_path / "q")
+    fixed = oracle.run_authors(tmp_path, sys.executable, tmp_path, s, lists, progress=False, theta=80)
+    assert fixed["threshold"] == 80 and fixed["calibration_R@1"] == {}
+    assert calls == [["process", *oracle._merged_args(s, "test", 80)]]  # no module step, no calibration
+    calls.clear()
+    calibrated = oracle.run_authors(tmp_path, sys.executable, tmp_path, s, lists, progress=False)
+    assert calibrated["threshold"] == 100 and len(calibrated["calibration_R@1"]) == len(oracle.THRESHOLDS)
+    assert len(calls) == len(oracle.THRESHOLDS) + 1 and calls[-1] == ["process", *oracle._merged_args(s, "test", 100)]
+    for bad in (-1, True, 2.5):
+        with pytest.raises(ValueError, match="theta is"):
+            oracle.run_authors(tmp_path, sys.executable, tmp_path, s, lists, progress=False, theta=bad)
 
 
 def test_route_order_rates_undo_the_codes_shuffle(tmp_path: Path) -> None:
@@ -131,3 +163,22 @@ def test_neurons_vs_breadth_ranks_places_by_neuron_count_and_breadth() -> None:
     assert oracle.neurons_vs_breadth(assignments, fired) == pytest.approx(1.0)
     assert oracle.neurons_vs_breadth(assignments, np.array([1, 1, 1, 5, 5, 20, 0])) == pytest.approx(-1.0)
     assert oracle.neurons_vs_breadth(np.array([7, 3]), np.array([4, 6])) is None  # one neuron each
+
+
+def test_the_comparison_refuses_a_fixture_made_at_another_threshold(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        spec = importlib.util.spec_from_file_location("modular_snn_vs_authors", ROOT / "benchmarks" / "modular_snn_vs_authors.py")
+        comparison = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(comparison)
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    s = comparison._settings(comparison._args([]))
+    fixture = tmp_path / "fixture.json"
+    fixture.write_text(json.dumps({"settings": s.as_dict(), "theta": 80, "facts": {}}))
+    assert comparison.main(["--fixture", str(fixture), "--out", str(tmp_path / "out")]) == 2
+    assert "made with --theta 80, not calibrated thresholds" in capsys.readouterr().err
+    assert comparison.main(["--fixture", str(fixture), "--theta", "60", "--out", str(tmp_path / "out")]) == 2
+    assert "made with --theta 80, not --theta 60" in capsys.readouterr().err
+    assert comparison.main(["--fixture", str(fixture), "--theta", "-1", "--out", str(tmp_path / "out")]) == 2
+    assert not (tmp_path / "out").exists()
