@@ -19,15 +19,19 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def _oracle():
+def _benchmark(name: str):
     sys.path.insert(0, str(ROOT / "benchmarks"))
     try:
-        spec = importlib.util.spec_from_file_location("vprsnn_oracle", ROOT / "benchmarks" / "vprsnn_oracle.py")
+        spec = importlib.util.spec_from_file_location(name, ROOT / "benchmarks" / f"{name}.py")
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
     finally:
         sys.path.remove(str(ROOT / "benchmarks"))
     return module
+
+
+def _oracle():
+    return _benchmark("vprsnn_oracle")
 
 
 def _write_outputs(oracle, workdir: Path, s, threshold: int, summed: np.ndarray) -> None:
@@ -166,13 +170,7 @@ def test_neurons_vs_breadth_ranks_places_by_neuron_count_and_breadth() -> None:
 
 
 def test_the_comparison_refuses_a_fixture_made_at_another_threshold(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    sys.path.insert(0, str(ROOT / "benchmarks"))
-    try:
-        spec = importlib.util.spec_from_file_location("modular_snn_vs_authors", ROOT / "benchmarks" / "modular_snn_vs_authors.py")
-        comparison = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(comparison)
-    finally:
-        sys.path.remove(str(ROOT / "benchmarks"))
+    comparison = _benchmark("modular_snn_vs_authors")
     s = comparison._settings(comparison._args([]))
     fixture = tmp_path / "fixture.json"
     fixture.write_text(json.dumps({"settings": s.as_dict(), "theta": 80, "facts": {}}))
