@@ -125,8 +125,9 @@ def _args(argv: list[str] | None = None) -> argparse.Namespace:
                    help="both sides at this fixed hyperactive threshold (reference images fired for) instead of each "
                         "member's calibrated one; the authors' finished module steps are reused")  # fmt: skip
     p.add_argument("--seeding", choices=SEEDINGS, default="module",
-                   help="neurovpr side: random draws, every module its own (default) or as the authors' code (the same "
-                        "initial weights in every module, one Poisson seed per member; models/modular_snn/plan.py)")  # fmt: skip
+                   help="neurovpr side: random draws, every module its own (default) or as the authors' code (every "
+                        "module of a member the same initial weights, delays and Poisson streams; "
+                        "models/modular_snn/plan.py)")  # fmt: skip
     return p.parse_args(argv)
 
 

@@ -59,14 +59,12 @@ that gives the paper's text where a user may want it:
 
 Not reproduced: the code's evaluation gives a row only to the labels some neuron holds
 (-1, unassigned, included), here every place has a row and one without neurons scores 0.
-Random draws: the code draws every module's initial weights with ``np.random.seed(0)``
-(``tools/random_connection_generator.py``), the same for every module and member, and seeds Brian2
-with the member's seed in every module step, so all modules of a member get the same Poisson
-input streams; by default each module here draws its own from its seed
-(:func:`.training.derive_seed`), ``--seeding code`` draws as the code does (:mod:`.plan`). The
-default stays: with the code's draws this model's members agree with the code's, but their
-ensembles gain less and concentrate their best matches more than the code's at every common
-hyperactive threshold (README, ``benchmarks/modular_snn_vs_authors.py --seeding code --theta``).
+Random draws: the code seeds NumPy and Brian2 with the member's seed at the start of every
+module step (``non_modular_snn/snn_model.py``), so all modules of a member start from the same
+input weights and delays and receive the same Poisson streams; by default each module here draws
+its own from its seed (:func:`.training.derive_seed`), ``--seeding code`` draws as the code does
+(:mod:`.plan`); measured on 150 places it brings the ensembles no closer to the code's (README),
+so it is not the default.
 
 Epochs: the published code trains one epoch count per run, 30 in its Nordland configuration,
 the default here (``--epochs``); the authors' README calls the count a hyperparameter chosen

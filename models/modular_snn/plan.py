@@ -16,13 +16,16 @@ Seeds (``seeding``). Module ``k`` of member ``m`` has its own seed
 ``derive_seed(seed, m, 0, k)``, which always draws its presentation order. With
 ``seeding="module"`` (the default) it also draws the module's initial weights and
 delays and its Poisson input spikes, so no two modules share any random draw.
-``seeding="code"`` seeds as VPRSNN does: ``tools/random_connection_generator.py`` draws
-the initial weights after ``np.random.seed(0)``, the same for every module of every
-member (here ``derive_seed(seed, 1_000_000)``, one draw per run), and
-``non_modular_snn/snn_model.py`` calls ``b2.seed(args.seed)`` in every module step, so all
-modules of a member draw the same input delays (Brian2's ``rand()``) and receive the same
-Poisson streams (here both from ``derive_seed(seed, m, 2)``): for the queries, every module
-of a member sees the same input spikes.
+``seeding="code"`` seeds as VPRSNN does: ``non_modular_snn/snn_model.py`` calls
+``np.random.seed(args.seed)`` and ``b2.seed(args.seed)`` at the start of every module step
+and then draws the input weights with NumPy (``np.random.random((n_input, n_e)) + 0.01``,
+times 0.3, in training mode; the files of ``tools/random_connection_generator.py`` are not
+read for them), the input delays with Brian2's ``rand()`` and the Poisson spikes with
+Brian2's generator. So all modules of a member start from the same input weights and
+delays and receive the same Poisson streams, and members differ in all three: here the
+weights come from ``derive_seed(seed, m, 3)`` and the delays and Poisson spikes from
+``derive_seed(seed, m, 2)``, for every module of member ``m``. For the queries, every
+module of a member sees the same input spikes.
 
 Calibration and reported places. The calibration modules and the calibration queries
 (queries whose matches are all calibration places) choose each member's hyperactive
@@ -60,8 +63,6 @@ __all__ = [
 PLACE_ORDERS = ("shuffled", "route")
 #: How modules draw their random numbers (see the module docstring).
 SEEDINGS = ("module", "code")
-#: The key of the run-wide initial-weight seed of ``seeding="code"``.
-_SHARED_NETWORK_KEY = 1_000_000
 #: The seed of VPRSNN's draw of the calibration places (the same for every member).
 _CALIBRATION_SEED = 42
 
@@ -154,7 +155,7 @@ def make_plan(
             cal, rest = cal_set, np.setdiff1d(np.arange(n_places), cal_set)
         chunks = [(cal[i : i + module_size], True) for i in range(0, cal.size, module_size)]
         chunks += [(rest[i : i + module_size], False) for i in range(0, rest.size, module_size)]
-        shared = (derive_seed(seed, _SHARED_NETWORK_KEY), derive_seed(seed, m, 2)) if seeding == "code" else (None, None)
+        shared = (derive_seed(seed, m, 3), derive_seed(seed, m, 2)) if seeding == "code" else (None, None)
         for k, (places, calibrates) in enumerate(chunks):
             plan.append(
                 ModulePlan(

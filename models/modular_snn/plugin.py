@@ -79,8 +79,8 @@ class ModularTrainOptions:
     )
     seeding: Literal["module", "code"] = option(
         "module",
-        "random draws: every module its own, or as the authors' code (the same initial weights in every module, "
-        "the same Poisson streams in every module of a member)",
+        "random draws: every module its own, or as the authors' code (every module of a member the same initial "
+        "weights, delays and Poisson streams)",
     )
     calibration_places: int | None = option(
         None,

@@ -171,9 +171,9 @@ def train_run(
         modules are seeded by the master seed and the member index alone, so a member
         trained this way is the member a full run trains.
     seeding
-        ``"module"`` (every module its own random draws) or ``"code"`` (VPRSNN's: the same
-        initial weights in every module, the same Poisson streams in every module of a
-        member); see :mod:`.plan`. Stored in ``run.json`` with every module's seeds.
+        ``"module"`` (every module its own random draws) or ``"code"`` (VPRSNN's: every module
+        of a member the same initial weights, delays and Poisson streams); see :mod:`.plan`.
+        Stored in ``run.json`` with every module's seeds.
 
     Returns
     -------

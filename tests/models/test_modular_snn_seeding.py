@@ -1,4 +1,4 @@
-"""Modular SNN seeding: every module its own random draws, or the authors' code's (shared weights and streams)."""
+"""Modular SNN seeding: every module its own random draws, or the authors' code's (one set per member)."""
 
 from __future__ import annotations
 
@@ -15,14 +15,15 @@ from neurovpr.models.modular_snn.parallel import read_npz
 from neurovpr.models.modular_snn.plan import query_seed
 
 
-def test_code_seeding_shares_initial_weights_run_wide_and_poisson_streams_per_member() -> None:
+def test_code_seeding_gives_every_module_of_a_member_the_same_weights_delays_and_streams() -> None:
     plan = make_plan(110, 25, members=3, seed=4, seeding="code")
-    assert len({p.network_seed for p in plan}) == 1  # VPRSNN: np.random.seed(0) before every module's weights
+    # VPRSNN: np.random.seed(args.seed) and b2.seed(args.seed) at the start of every module step of a member
+    weights = {m: {p.network_seed for p in plan if p.member == m} for m in range(3)}
     streams = {m: {p.stream_seed for p in plan if p.member == m} for m in range(3)}
-    assert all(len(s) == 1 for s in streams.values())  # b2.seed(args.seed) in every module step of a member
-    assert len({next(iter(s)) for s in streams.values()}) == 3  # ... and each member its own
+    assert all(len(s) == 1 for s in (*weights.values(), *streams.values()))
+    firsts = [next(iter(s)) for s in (*weights.values(), *streams.values())]
+    assert len(set(firsts)) == 6  # members differ in both, and weights and streams are drawn apart
     assert len({p.seed for p in plan}) == len(plan)  # the presentation order stays the module's own
-    assert len({p.network_seed for p in make_plan(110, 25, members=1, seed=5, seeding="code")} | {plan[0].network_seed}) == 2
     # the default draws everything from the module's seed, as before the option existed
     own = make_plan(110, 25, members=3, seed=4)
     assert [p.seeds for p in own] == [{"seed": p.seed, "network_seed": p.seed, "stream_seed": p.seed} for p in own]
@@ -94,7 +95,7 @@ def test_the_command_line_trains_with_the_codes_seeding(tmp_path: Path) -> None:
             "--seeding", "code"]  # fmt: skip
     assert MODEL.train(train_request(MODEL, argv)[1])["complete"]
     info = json.loads((tmp_path / "run" / "run.json").read_text())
-    assert info["seeding"] == "code" and len({m["network_seed"] for m in info["modules"]}) == 1
+    assert info["seeding"] == "code" and len({m["network_seed"] for m in info["modules"]}) == 2  # one per member
     with pytest.raises(SystemExit) as bad:
         train_request(MODEL, [*argv[:-1], "brian2"])
     assert bad.value.code == 2
