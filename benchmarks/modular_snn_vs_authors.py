@@ -31,6 +31,8 @@ neuron fires for) instead of each member's threshold calibrated on 25 places (th
 side reuses its finished module steps and reruns only its test evaluation; its figures go
 to a fixture of their own, which records the threshold). ``--seeding code`` trains this
 model's side with the authors' code's random draws (:mod:`neurovpr.models.modular_snn.plan`).
+``--first-member K`` compares this model's members K..K+N-1 (of a run of K+N members) with
+the authors' same N seeds, to see how much the choice of members moves the ensemble figures.
 
 Usage (from the repository root)::
 
@@ -124,6 +126,9 @@ def _args(argv: list[str] | None = None) -> argparse.Namespace:
     p.add_argument("--theta", type=int, default=None,
                    help="both sides at this fixed hyperactive threshold (reference images fired for) instead of each "
                         "member's calibrated one; the authors' finished module steps are reused")  # fmt: skip
+    p.add_argument("--first-member", type=int, default=0,
+                   help="neurovpr side: compare members K..K+N-1 of a run of K+N members (default 0; the authors' "
+                        "seeds stay --seed..--seed+N-1)")  # fmt: skip
     p.add_argument("--seeding", choices=SEEDINGS, default="module",
                    help="neurovpr side: random draws, every module its own (default) or as the authors' code (every "
                         "module of a member the same initial weights, delays and Poisson streams; "
@@ -167,19 +172,22 @@ def neurovpr_facts(args: argparse.Namespace, s: OracleSettings, traverse: Traver
     run_dir = args.out / "run"
     workers = args.workers or default_workers()
     start, cpu = time.perf_counter(), time.process_time()
+    first = args.first_member
     summary = train_run(
-        run_dir, reference, settings, members=args.members, seed=s.seed, n_calibration=s.n_cal, workers=workers, resume=True,
-        seeding=args.seeding, theta=None if args.theta is None else float(args.theta),
+        run_dir, reference, settings, members=first + args.members, seed=s.seed, n_calibration=s.n_cal, workers=workers,
+        resume=True, seeding=args.seeding, theta=None if args.theta is None else float(args.theta),
     )  # fmt: skip
     info = summary["run_info"]
     counts = query_responses(run_dir, info, query, workers=workers)
-    ms = member_similarities(run_dir, info, counts, traverse.ground_truth)
+    chosen = list(range(first, first + args.members))
+    ms = member_similarities(run_dir, info, counts, traverse.ground_truth, members=chosen)
     gt = traverse.ground_truth.subset(ms.places, ms.queries)
-    members = [_member_facts(run_dir, info, counts, ms, gt, k, len(reference)) for k in range(args.members)]
+    members = [_member_facts(run_dir, info, counts, ms, gt, k, m, len(reference)) for k, m in enumerate(chosen)]
     sad = sad_distances(reference[ms.places], query[ms.queries], preprocess=False)  # the same 28x28 images
     out = {
         **members[0],
         "members": members,
+        "first_member": first,
         "SAD": {"R@1": float(recall_at_n(sad, gt, [1])[1]), **match_concentration(sad)},
         "train_record_seconds_per_module_cpu": float(sum(info[f"{k}_cpu_seconds_per_module"] for k in ("train", "record"))),
         "wall_seconds": round(time.perf_counter() - start, 1),
@@ -209,11 +217,13 @@ def _label(members: tuple[int, ...]) -> str:
     return "+".join(map(str, members))
 
 
-def _member_facts(run_dir: Path, info: dict, counts: dict, ms: Any, gt: Any, k: int, n_reference: int) -> dict[str, Any]:
-    """Member ``k``'s figures, the same as :func:`collect_facts` reads from the authors' outputs."""
+def _member_facts(
+    run_dir: Path, info: dict, counts: dict, ms: Any, gt: Any, k: int, member: int, n_reference: int
+) -> dict[str, Any]:
+    """The figures of ``member`` (``ms``'s ``k``-th), the same as :func:`collect_facts` reads from the authors' outputs."""
     distances = distance_from_similarity(ms.similarities[k])
     theta = ms.thresholds[k]
-    tested = [mod for mod in info["modules"] if not mod["calibration"] and int(mod["member"]) == k]
+    tested = [mod for mod in info["modules"] if not mod["calibration"] and int(mod["member"]) == member]
     records = [read_npz(run_dir / "modules" / f"{mod['name']}.npz") for mod in tested]
     q = np.concatenate([counts[mod["name"]][ms.queries] for mod in tested], axis=1)
     fired = np.concatenate([r["images_fired"] for r in records])
@@ -322,6 +332,9 @@ def main(argv: list[str] | None = None) -> int:
     if args.members < 1:
         print(f"--members is {args.members}; expected at least 1", file=sys.stderr)
         return 2
+    if args.first_member < 0:
+        print(f"--first-member is {args.first_member}; expected 0 or more", file=sys.stderr)
+        return 2
     if args.theta is not None and args.theta < 0:
         print(f"--theta is {args.theta}; expected a whole number of reference images >= 0", file=sys.stderr)
         return 2
@@ -394,7 +407,8 @@ def _print(oracle: dict[str, Any], ours: dict[str, Any], s: OracleSettings) -> N
         head += [("neurovpr: R@1", 15), ("distinct", 10), ("top share", 11)]
         print("\n" + " " * 24 + "".join(f"{h:>{w}}" for h, w in head))
         pairs = zip(oracle["members"], b["members"], strict=True)
-        rows = [(f"member {k} (seed {s.seed + k})", x, y) for k, (x, y) in enumerate(pairs)]
+        first = b.get("first_member", 0)
+        rows = [(f"member {k} (seed {s.seed + k})" + (f"/{first + k}" if first else ""), x, y) for k, (x, y) in enumerate(pairs)]
         if len(oracle["members"]) <= 3:  # with more, every ensemble is in comparison.json; printed: means by size
             rows += [
                 (f"ensemble of {label.replace('+', ', ')}", x, b["ensembles"][label]) for label, x in oracle["ensembles"].items()

@@ -180,3 +180,9 @@ def test_the_comparison_refuses_a_fixture_made_at_another_threshold(tmp_path: Pa
     assert "made with --theta 80, not --theta 60" in capsys.readouterr().err
     assert comparison.main(["--fixture", str(fixture), "--theta", "-1", "--out", str(tmp_path / "out")]) == 2
     assert not (tmp_path / "out").exists()
+
+
+def test_the_comparison_refuses_a_negative_first_member(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    comparison = _benchmark("modular_snn_vs_authors")
+    assert comparison.main(["--first-member", "-1", "--out", str(tmp_path / "out")]) == 2
+    assert "--first-member is -1" in capsys.readouterr().err and not (tmp_path / "out").exists()
