@@ -407,7 +407,7 @@ def _print(oracle: dict[str, Any], ours: dict[str, Any], s: OracleSettings) -> N
         head += [("neurovpr: R@1", 15), ("distinct", 10), ("top share", 11)]
         print("\n" + " " * 24 + "".join(f"{h:>{w}}" for h, w in head))
         pairs = zip(oracle["members"], b["members"], strict=True)
-        first = b.get("first_member", 0)
+        first = b["first_member"]
         rows = [(f"member {k} (seed {s.seed + k})" + (f"/{first + k}" if first else ""), x, y) for k, (x, y) in enumerate(pairs)]
         if len(oracle["members"]) <= 3:  # with more, every ensemble is in comparison.json; printed: means by size
             rows += [

@@ -94,6 +94,13 @@ class ModulePlan:
         }
 
     @property
+    def apart_seeds(self) -> tuple[int, ...]:
+        """``(network_seed, stream_seed)`` when they are drawn apart from ``seed`` (``seeding="code"``), else ``()``."""
+        if self.network_seed is None and self.stream_seed is None:
+            return ()
+        return self.seeds["network_seed"], self.seeds["stream_seed"]
+
+    @property
     def name(self) -> str:
         """File stem, ``m<member>_k<module>``."""
         return f"m{self.member:02d}_k{self.module:03d}"

@@ -215,7 +215,7 @@ def train_run(
     # without extra traverses the fingerprint is the one of single-traverse runs (they stay resumable)
     extra_part = (extra_digests,) if extras else ()
     # the shared seeds join the fingerprint only when they exist, so that runs seeded per module stay resumable
-    prints = [digest(cfg, data_digest, j.places, j.seed, j.name, *extra_part, *_shared_seeds(j)) for j in plan]
+    prints = [digest(cfg, data_digest, j.places, j.seed, j.name, *extra_part, *j.apart_seeds) for j in plan]
     n_chosen = sum(1 for j in plan if j.member in chosen)
     todo = [i for i, j in enumerate(plan) if j.member in chosen and not _finished(run_dir, j, prints[i])]
     skipped = n_chosen - len(todo)
@@ -233,7 +233,7 @@ def train_run(
     n_traverses = 1 + len(extras)
     shared = np.concatenate([images, *extras], axis=0) if extras else images
     jobs = [
-        (cfg, f"modular_snn_{plan[i].name}", plan[i].places, plan[i].seed, prints[i], n_traverses, *_shared_seeds(plan[i]))
+        (cfg, f"modular_snn_{plan[i].name}", plan[i].places, plan[i].seed, prints[i], n_traverses, *plan[i].apart_seeds)
         for i in todo
     ]
     start = time.perf_counter()
@@ -303,14 +303,6 @@ def train_run(
     RunDir(run_dir).write_info(run_info, indent=1)
     summary.update(complete=True)
     return summary
-
-
-def _shared_seeds(job: ModulePlan) -> tuple[int, ...]:
-    """``(network_seed, stream_seed)`` of a module seeded as VPRSNN seeds (``seeding="code"``), else ``()``."""
-    if job.network_seed is None and job.stream_seed is None:
-        return ()
-    seeds = job.seeds
-    return seeds["network_seed"], seeds["stream_seed"]
 
 
 def _bar(total: int, initial: int, desc: str, enabled: bool) -> Any:

@@ -24,9 +24,11 @@ def test_code_seeding_gives_every_module_of_a_member_the_same_weights_delays_and
     firsts = [next(iter(s)) for s in (*weights.values(), *streams.values())]
     assert len(set(firsts)) == 6  # members differ in both, and weights and streams are drawn apart
     assert len({p.seed for p in plan}) == len(plan)  # the presentation order stays the module's own
+    assert plan[0].apart_seeds == (plan[0].network_seed, plan[0].stream_seed)
     # the default draws everything from the module's seed, as before the option existed
     own = make_plan(110, 25, members=3, seed=4)
     assert [p.seeds for p in own] == [{"seed": p.seed, "network_seed": p.seed, "stream_seed": p.seed} for p in own]
+    assert all(p.apart_seeds == () for p in own)  # nothing joins the fingerprint: older runs stay resumable
     assert [p.places.tolist() for p in own] == [p.places.tolist() for p in plan]  # the split does not depend on it
     with pytest.raises(nv.ValidationError, match="seeding is 'brian2'"):
         make_plan(110, 25, members=1, seed=0, seeding="brian2")
