@@ -215,7 +215,10 @@ def run_authors(
         argv = [*s.common(), "--process_mode", mode, "--offset_after_skip", str(offset), "--ad_path", f"_offset{offset}"]
         own_log = log if workers == 1 else workdir / f"vprsnn_offset{offset}.log"
         cache = None if workers == 1 else workdir / "brian2_cache" / f"offset{offset}"
-        return offset, _run(python, authors, workdir, lists, step, argv, own_log, cache)
+        seconds = _run(python, authors, workdir, lists, step, argv, own_log, cache)
+        if progress:  # printed as each step ends, so a run stopped early still tells what a step costs
+            print(f"[authors' code] module offset {offset}: {label} took {seconds:.0f} s", flush=True)
+        return offset, seconds
 
     # a module's steps touch only its own folders (outputs, weights, random connections: ``--ad_path``)
     train = [o for o in offsets if not _module_output(workdir, s, o, s.n_cal if o < s.n_cal else None).is_file()]

@@ -104,6 +104,27 @@ def test_run_authors_with_a_fixed_threshold_evaluates_only_the_test_modules_at_i
             oracle.run_authors(tmp_path, sys.executable, tmp_path, s, lists, progress=False, theta=bad)
 
 
+def test_run_authors_prints_what_each_module_step_cost_as_it_ends(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    oracle = _oracle()
+    s = oracle.OracleSettings(n_test=25, n_cal=25, module_size=25, epochs=5, seed=0, n_e=50, update_interval=25)
+    seconds = {("train", "0"): 41.0, ("train", "25"): 42.0, ("test", "25"): 13.0}
+
+    def run(python, authors, workdir, lists, step, argv, log, cache=None):
+        if step == "process":
+            return 0.0
+        return seconds[(argv[argv.index("--process_mode") + 1], argv[argv.index("--offset_after_skip") + 1])]
+
+    monkeypatch.setattr(oracle, "_run", run)
+    done = oracle.run_authors(tmp_path, sys.executable, tmp_path, s, (tmp_path / "r", tmp_path / "q"), theta=40)
+    printed = capsys.readouterr().out
+    assert "module offset 0: train, record, calibrate took 41 s" in printed
+    assert "module offset 25: train, record, calibrate took 42 s" in printed
+    assert "module offset 25: test took 13 s" in printed
+    assert done["timing"] == {"train_record_calibrate_seconds": {0: 41.0, 25: 42.0}, "test_seconds": {25: 13.0}}
+
+
 def test_route_order_rates_undo_the_codes_shuffle(tmp_path: Path) -> None:
     oracle = _oracle()
     s = oracle.OracleSettings(n_test=4, n_cal=2, module_size=2, epochs=5, seed=3, n_e=4, update_interval=25)
