@@ -34,7 +34,7 @@ import numpy as np
 import neurovpr as nv
 
 from .inference import reference_activity
-from .training import Presenter, TrainingSettings, record_responses, train_module
+from .training import Presenter, TrainingSettings, module_seeds, record_responses, train_module
 
 __all__ = ["default_workers", "run_jobs", "train_job", "query_job", "npz_bytes", "read_npz"]
 
@@ -109,8 +109,7 @@ def train_job(
         raise nv.ValidationError(f"module {name!r}: {len(reference)} training images cannot be {t} traverses of equal length.")
     n_ref = len(reference) // t
     traverses = [reference[k * n_ref : (k + 1) * n_ref] for k in range(t)]
-    weights = int(seed if network_seed is None else network_seed)
-    stream = int(seed if stream_seed is None else stream_seed)
+    weights, stream = module_seeds(seed, network_seed, stream_seed)
     network, own, responses, timing = train_module(
         traverses[0], places, cfg, seed, name=name, extra_references=traverses[1:], network_seed=network_seed,
         stream_seed=stream_seed,

@@ -45,7 +45,7 @@ import numpy as np
 
 import neurovpr as nv
 
-from .training import derive_seed
+from .training import derive_seed, module_seeds
 
 __all__ = [
     "ModulePlan",
@@ -87,18 +87,15 @@ class ModulePlan:
     @property
     def seeds(self) -> dict[str, int]:
         """The seeds a record and ``run.json`` store: ``seed``, ``network_seed``, ``stream_seed``."""
-        return {
-            "seed": int(self.seed),
-            "network_seed": int(self.seed if self.network_seed is None else self.network_seed),
-            "stream_seed": int(self.seed if self.stream_seed is None else self.stream_seed),
-        }
+        network_seed, stream_seed = module_seeds(self.seed, self.network_seed, self.stream_seed)
+        return {"seed": int(self.seed), "network_seed": network_seed, "stream_seed": stream_seed}
 
     @property
     def apart_seeds(self) -> tuple[int, ...]:
         """``(network_seed, stream_seed)`` when they are drawn apart from ``seed`` (``seeding="code"``), else ``()``."""
         if self.network_seed is None and self.stream_seed is None:
             return ()
-        return self.seeds["network_seed"], self.seeds["stream_seed"]
+        return module_seeds(self.seed, self.network_seed, self.stream_seed)
 
     @property
     def name(self) -> str:

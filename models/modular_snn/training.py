@@ -60,6 +60,7 @@ __all__ = [
     "train_module",
     "record_responses",
     "derive_seed",
+    "module_seeds",
     "presentation_order",
 ]
 
@@ -164,6 +165,15 @@ class TrainingSettings:
 def derive_seed(seed: int, *keys: int) -> int:
     """A 31-bit seed derived from ``seed`` and integer ``keys`` (``numpy.random.SeedSequence``)."""
     return int(np.random.SeedSequence([int(seed), *map(int, keys)]).generate_state(1, dtype=np.uint32)[0] >> 1)
+
+
+def module_seeds(seed: int, network_seed: int | None = None, stream_seed: int | None = None) -> tuple[int, int]:
+    """``(network_seed, stream_seed)`` of a module: each given one, else the module's own ``seed``.
+
+    The one rule for which seed draws a module's initial weights and which its input delays and
+    Poisson spikes (see :func:`train_module`; :mod:`.plan` says when they are given apart).
+    """
+    return int(seed if network_seed is None else network_seed), int(seed if stream_seed is None else stream_seed)
 
 
 def presentation_order(seed: int, n_places: int) -> np.ndarray:
@@ -322,8 +332,7 @@ def train_module(
         )
     start, cpu_start = time.perf_counter(), time.process_time()
     apart = network_seed is not None or stream_seed is not None
-    weights = int(seed if network_seed is None else network_seed)
-    stream = int(seed if stream_seed is None else stream_seed)
+    weights, stream = module_seeds(seed, network_seed, stream_seed)
     graph = settings.network(name, weights, stream if apart else None)
     sim = nv.compile(graph, backend=settings.backend, dt=settings.dt, seed=stream)
     presenter = Presenter(sim, settings)
